@@ -1,0 +1,310 @@
+"""Camera and rig model: projection, back-projection, triangulation, calibration YAML.
+
+Convention (OpenCV, formats.md section 1): ``x_cam = R @ X_world + t`` and the
+pixel is ``K @ distort(x_cam[:2] / x_cam[2])``.  Everything is vectorised over
+points; a rig holds two or more cameras.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Sequence
+
+import cv2
+import numpy as np
+import yaml
+
+from .errors import StereotrackError
+
+_DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
+# Iterative undistortion to machine precision (OpenCV's default stops after 5 steps).
+_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """One calibrated camera: intrinsics K, distortion, and world -> camera pose."""
+
+    name: str
+    image_size: tuple[int, int]  # (width, height) in pixels
+    K: np.ndarray  # 3 x 3
+    dist: np.ndarray  # 0, 4, 5, 8, 12 or 14 OpenCV coefficients
+    R: np.ndarray  # 3 x 3 world -> camera rotation
+    t: np.ndarray  # 3 world -> camera translation, metres
+
+    @property
+    def width(self) -> int:
+        return int(self.image_size[0])
+
+    @property
+    def height(self) -> int:
+        return int(self.image_size[1])
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Optical centre in world coordinates."""
+        return -self.R.T @ self.t
+
+    @property
+    def P(self) -> np.ndarray:
+        """3 x 4 projection matrix K [R | t] (ignores distortion)."""
+        return self.K @ np.hstack([self.R, self.t[:, None]])
+
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        """World points (N x 3) in this camera's frame (N x 3)."""
+        return np.asarray(points, dtype=float) @ self.R.T + self.t
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Project world points (N x 3) to pixels.
+
+        Returns (pixels N x 2, in_front N bool). Points behind the camera get
+        NaN pixels and in_front False.
+        """
+        pc = self.to_camera(points)
+        z = pc[:, 2]
+        in_front = z > 1e-9
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = pc[:, :2] / np.where(in_front, z, np.nan)[:, None]
+        uv = self.distort_normalised(xn)
+        return uv, in_front
+
+    def distort_normalised(self, xn: np.ndarray) -> np.ndarray:
+        """Normalised undistorted coordinates (N x 2) -> distorted pixels (N x 2)."""
+        d = self.dist
+        if d.size == 14:  # tilted sensor model: rare, leave it to OpenCV
+            pts = np.hstack([xn, np.ones((len(xn), 1))])
+            uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), self.K, d)
+            return uv.reshape(-1, 2)
+        k = np.zeros(12)
+        k[: d.size] = d
+        k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = k
+        x, y = xn[:, 0], xn[:, 1]
+        r2 = x * x + y * y
+        r4 = r2 * r2
+        r6 = r4 * r2
+        radial = (1 + k1 * r2 + k2 * r4 + k3 * r6) / (1 + k4 * r2 + k5 * r4 + k6 * r6)
+        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4
+        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4
+        K = self.K
+        u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
+        v = K[1, 1] * yd + K[1, 2]
+        return np.stack([u, v], axis=1)
+
+    def undistort_pixels(self, pixels: np.ndarray) -> np.ndarray:
+        """Distorted pixels (N x 2) -> normalised undistorted coordinates (N x 2)."""
+        px = np.asarray(pixels, dtype=np.float64).reshape(-1, 1, 2)
+        if len(px) == 0:
+            return np.zeros((0, 2))
+        if self.dist.size == 0 or not np.any(self.dist):
+            K = self.K
+            xn = np.empty((len(px), 2))
+            xn[:, 1] = (px[:, 0, 1] - K[1, 2]) / K[1, 1]
+            xn[:, 0] = (px[:, 0, 0] - K[0, 2] - K[0, 1] * xn[:, 1]) / K[0, 0]
+            return xn
+        out = cv2.undistortPoints(px, self.K, self.dist, criteria=_UNDISTORT_CRITERIA)
+        return out.reshape(-1, 2)
+
+    def rays(self, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Back-project pixels (N x 2) to world rays: (origins N x 3, unit directions N x 3)."""
+        xn = self.undistort_pixels(pixels)
+        d_cam = np.hstack([xn, np.ones((len(xn), 1))])
+        d_world = d_cam @ self.R  # R.T @ d for each row
+        d_world /= np.linalg.norm(d_world, axis=1, keepdims=True)
+        origins = np.broadcast_to(self.centre, d_world.shape).copy()
+        return origins, d_world
+
+    def depth(self, points: np.ndarray) -> np.ndarray:
+        """Depth (z in the camera frame) of world points (N x 3)."""
+        return self.to_camera(points)[:, 2]
+
+
+@dataclass(frozen=True, eq=False)
+class Rig:
+    """Two or more cameras sharing one world frame."""
+
+    cameras: tuple[Camera, ...]
+    world: str = "cam0"
+    quality: dict[str, Any] | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        if len(self.cameras) < 2:
+            raise StereotrackError(f"a rig needs at least 2 cameras, got {len(self.cameras)}")
+
+    @property
+    def names(self) -> list[str]:
+        return [c.name for c in self.cameras]
+
+    def __len__(self) -> int:
+        return len(self.cameras)
+
+    def __getitem__(self, key: int | str) -> Camera:
+        if isinstance(key, str):
+            for cam in self.cameras:
+                if cam.name == key:
+                    return cam
+            raise StereotrackError(f"no camera named {key!r} in the rig (cameras: {', '.join(self.names)})")
+        return self.cameras[key]
+
+    def project(self, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Project world points into every camera: a list of (pixels, in_front)."""
+        return [cam.project(points) for cam in self.cameras]
+
+    def triangulate(self, pixels: Sequence[np.ndarray | None]) -> np.ndarray:
+        """Triangulate one point from one pixel (u, v) per camera; None skips a camera."""
+        obs = [(cam, np.asarray(p, dtype=float).reshape(1, 2)) for cam, p in zip(self.cameras, pixels) if p is not None]
+        if len(obs) < 2:
+            raise ValueError("triangulation needs observations from at least 2 cameras")
+        return triangulate_points([c for c, _ in obs], [p for _, p in obs])[0]
+
+    def baseline(self, i: int = 0, j: int = 1) -> float:
+        return float(np.linalg.norm(self.cameras[i].centre - self.cameras[j].centre))
+
+
+def triangulate_points(cameras: Sequence[Camera], pixels: Sequence[np.ndarray]) -> np.ndarray:
+    """Triangulate M points seen by every given camera (pixels: one M x 2 array per camera).
+
+    Linear least squares (DLT) on undistorted normalised coordinates, solved
+    for all points at once; exact observations give the exact point.
+    """
+    m = len(pixels[0])
+    rows = []
+    for cam, px in zip(cameras, pixels):
+        xn = cam.undistort_pixels(px)  # M x 2
+        P = np.hstack([cam.R, cam.t[:, None]])  # normalised projection
+        rows.append(xn[:, 0:1] * P[2] - P[0])  # M x 4
+        rows.append(xn[:, 1:2] * P[2] - P[1])
+    A = np.stack(rows, axis=1)  # M x 2C x 4
+    _, _, vt = np.linalg.svd(A)
+    Xh = vt[:, -1, :]
+    return Xh[:, :3] / Xh[:, 3:4] if m else np.zeros((0, 3))
+
+
+def look_at(eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, -1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """World -> camera (R, t) for a camera at ``eye`` looking at ``target``.
+
+    The camera's y axis points along ``up``'s opposite in the image (image y
+    grows downwards), OpenCV style: z forward, x right, y down.
+    """
+    eye = np.asarray(eye, float)
+    z = np.asarray(target, float) - eye
+    z /= np.linalg.norm(z)
+    down = -np.asarray(up, float)
+    x = np.cross(down, z)
+    if np.linalg.norm(x) < 1e-9:
+        raise ValueError("look_at: 'up' is parallel to the viewing direction")
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    return R, -R @ eye
+
+
+def intrinsics_from_fov(width: int, height: int, hfov_deg: float) -> np.ndarray:
+    """Pinhole K with square pixels, principal point at the image centre."""
+    f = (width / 2) / math.tan(math.radians(hfov_deg) / 2)
+    return np.array([[f, 0, (width - 1) / 2], [0, f, (height - 1) / 2], [0, 0, 1.0]])
+
+
+# --------------------------------------------------------------------------- YAML
+
+
+def _fail(path: Path | str, field_name: str, what: str) -> StereotrackError:
+    return StereotrackError(f"{path}: field '{field_name}': {what}")
+
+
+def _matrix(path, field_name, value, shape) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _fail(path, field_name, f"expected numbers in a {shape[0]}x{shape[1] if len(shape) > 1 else ''} list".rstrip("x")) from None
+    if arr.shape != shape:
+        raise _fail(path, field_name, f"expected shape {list(shape)}, got {list(arr.shape)}")
+    if not np.all(np.isfinite(arr)):
+        raise _fail(path, field_name, "contains a non-finite number")
+    return arr
+
+
+def _camera_from_dict(path, i: int, d: Any) -> Camera:
+    where = f"cameras[{i}]"
+    if not isinstance(d, dict):
+        raise _fail(path, where, "expected a mapping with name, image_size, K, dist, R, t")
+    for key in ("name", "image_size", "K", "R", "t"):
+        if key not in d:
+            raise _fail(path, f"{where}.{key}", "missing")
+    name = str(d["name"])
+    size = d["image_size"]
+    if not (isinstance(size, (list, tuple)) and len(size) == 2 and all(isinstance(v, int) and v > 0 for v in size)):
+        raise _fail(path, f"{where}.image_size", f"expected [width, height] in whole pixels, got {size!r}")
+    K = _matrix(path, f"{where}.K", d["K"], (3, 3))
+    if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1) > 1e-9 or np.any(K[1:, 0] != 0) or np.any(K[2, :2] != 0):
+        raise _fail(path, f"{where}.K", "expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0")
+    dist_raw = d.get("dist", [])
+    dist_raw = [] if dist_raw is None else dist_raw
+    try:
+        dist = np.asarray(dist_raw, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise _fail(path, f"{where}.dist", "expected a list of numbers") from None
+    if dist.size not in _DIST_LENGTHS:
+        raise _fail(path, f"{where}.dist", f"expected 0, 4, 5, 8, 12 or 14 coefficients, got {dist.size}")
+    R = _matrix(path, f"{where}.R", d["R"], (3, 3))
+    if np.abs(R @ R.T - np.eye(3)).max() > 1e-5 or np.linalg.det(R) < 0:
+        raise _fail(path, f"{where}.R", "is not a rotation matrix (R R^T must be I and det(R) = +1)")
+    t = _matrix(path, f"{where}.t", d["t"], (3,))
+    return Camera(name=name, image_size=(int(size[0]), int(size[1])), K=K, dist=dist, R=R, t=t)
+
+
+def rig_from_dict(data: Any, path: Path | str = "<calibration>") -> Rig:
+    """Build and validate a rig from parsed calibration YAML (formats.md section 1)."""
+    if not isinstance(data, dict):
+        raise _fail(path, "<top level>", "expected a mapping with 'cameras'")
+    cams = data.get("cameras")
+    if not isinstance(cams, list) or len(cams) < 2:
+        raise _fail(path, "cameras", "expected a list of at least 2 cameras")
+    cameras = tuple(_camera_from_dict(path, i, c) for i, c in enumerate(cams))
+    names = [c.name for c in cameras]
+    if len(set(names)) != len(names):
+        raise _fail(path, "cameras", f"camera names must be unique, got {names}")
+    world = str(data.get("world", cameras[0].name))
+    if world != "custom" and world not in names:
+        raise _fail(path, "world", f"expected a camera name ({', '.join(names)}) or 'custom', got {world!r}")
+    quality = data.get("quality")
+    if quality is not None and not isinstance(quality, dict):
+        raise _fail(path, "quality", "expected a mapping")
+    return Rig(cameras=cameras, world=world, quality=quality)
+
+
+def rig_to_dict(rig: Rig) -> dict[str, Any]:
+    def lst(a: np.ndarray) -> list:
+        return np.asarray(a, dtype=float).tolist()
+
+    out: dict[str, Any] = {"version": 1, "units": "metres", "world": rig.world, "cameras": []}
+    for c in rig.cameras:
+        out["cameras"].append(
+            {"name": c.name, "image_size": [c.width, c.height], "K": lst(c.K), "dist": lst(c.dist), "R": lst(c.R), "t": lst(c.t)}
+        )
+    if rig.quality is not None:
+        out["quality"] = rig.quality
+    return out
+
+
+def load_rig(path: str | Path) -> Rig:
+    """Read and validate a calibration YAML file."""
+    path = Path(path)
+    if not path.is_file():
+        raise StereotrackError(f"{path}: calibration file not found (run 'stereotrack calibrate' or pass --calib FILE)")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    return rig_from_dict(data, path)
+
+
+def save_rig(rig: Rig, path: str | Path) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(rig_to_dict(rig), sort_keys=False, default_flow_style=None))
+
+
+def with_image_size(cam: Camera, size: tuple[int, int]) -> Camera:
+    return replace(cam, image_size=(int(size[0]), int(size[1])))

@@ -1,0 +1,1 @@
+"""One module per `stereotrack` sub-command (see cli.py for the contract)."""

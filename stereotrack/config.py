@@ -1,0 +1,213 @@
+"""Settings in one typed place: YAML config (formats.md section 4) -> frozen dataclasses.
+
+Every setting has a documented default here; the README's settings table is
+generated from these docstrings' field comments. Unknown keys and values out
+of range are refused with a message naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import StereotrackError
+
+
+@dataclass(frozen=True)
+class Target:
+    """A ball colour to track: an OpenCV HSV range and the ball's radius."""
+
+    name: str
+    hsv_min: tuple[int, int, int]  # H 0..179, S and V 0..255
+    hsv_max: tuple[int, int, int]  # hsv_min[0] > hsv_max[0]: the hue range wraps around red
+    radius: float = 0.035  # ball radius in metres
+
+    @property
+    def wraps(self) -> bool:
+        return self.hsv_min[0] > self.hsv_max[0]
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    """The particle tracker (paper sections III-B to III-F)."""
+
+    particles: int = 2000  # N, total particles per target
+    alpha: float = 0.2  # share of abductive (importance-sampled) particles, 0..1
+    window: int = 5  # colour window W in pixels (odd)
+    motion_sigma: float = 0.02  # random-walk standard deviation per frame, metres
+    d_min: float = 0.2  # nearest depth along a viewing ray for abductive particles, metres
+    d_max: float = 5.0  # farthest depth along a viewing ray, metres
+    blob_method: str = "components"  # "components" (connected components) or "histogram" (paper's axis maxima)
+    min_blob_area: int = 6  # smallest colour blob, pixels
+    depth_from_size: bool = True  # narrow the ray's depth range with the ball's apparent size
+    cluster_min_likelihood: float = 0.05  # particles below this likelihood are not clustered
+    cluster_min_mass: float = 0.01  # clusters with less weight are dropped
+    cluster_min_particles: int = 8  # clusters with fewer particles are dropped
+    max_objects: int = 12  # at most this many objects per target
+    seed: int = 0  # random seed; runs are reproducible
+
+
+@dataclass(frozen=True)
+class Config:
+    targets: tuple[Target, ...] = ()
+    tracker: TrackerSettings = field(default_factory=TrackerSettings)
+
+
+_RANGES: dict[str, tuple[float, float]] = {
+    "particles": (1, 10_000_000),
+    "alpha": (0.0, 1.0),
+    "window": (1, 101),
+    "motion_sigma": (0.0, 10.0),
+    "d_min": (0.0, 1000.0),
+    "d_max": (0.0, 1000.0),
+    "min_blob_area": (1, 1_000_000),
+    "cluster_min_likelihood": (0.0, 1.0),
+    "cluster_min_mass": (0.0, 1.0),
+    "cluster_min_particles": (1, 1_000_000),
+    "max_objects": (1, 1000),
+}
+_CHOICES: dict[str, tuple[str, ...]] = {"blob_method": ("components", "histogram")}
+
+
+def _err(path, key: str, what: str) -> StereotrackError:
+    return StereotrackError(f"{path}: '{key}': {what}")
+
+
+def _section(path, name: str, cls, data: Any):
+    """Build a settings dataclass from a mapping, checking names, types and ranges."""
+    if data is None:
+        return cls()
+    if not isinstance(data, dict):
+        raise _err(path, name, "expected a mapping of settings")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for key, value in data.items():
+        if key not in fields:
+            hint = difflib.get_close_matches(str(key), fields, n=1)
+            raise _err(path, f"{name}.{key}", "unknown setting" + (f" (did you mean '{hint[0]}'?)" if hint else ""))
+        default = getattr(cls(), key)
+        try:
+            if isinstance(default, bool):
+                if not isinstance(value, bool):
+                    raise TypeError
+            elif isinstance(default, int):
+                if isinstance(value, bool) or float(value) != int(value):
+                    raise TypeError
+                value = int(value)
+            elif isinstance(default, float):
+                if isinstance(value, bool):
+                    raise TypeError
+                value = float(value)
+            elif isinstance(default, str):
+                value = str(value)
+        except (TypeError, ValueError):
+            raise _err(path, f"{name}.{key}", f"expected a {type(default).__name__}, got {value!r}") from None
+        if key in _RANGES:
+            lo, hi = _RANGES[key]
+            if not lo <= value <= hi:
+                raise _err(path, f"{name}.{key}", f"must be between {lo:g} and {hi:g}, got {value!r}")
+        if key in _CHOICES and value not in _CHOICES[key]:
+            raise _err(path, f"{name}.{key}", f"must be one of {', '.join(_CHOICES[key])}, got {value!r}")
+        kwargs[key] = value
+    return cls(**kwargs)
+
+
+def _hsv(path, key: str, value: Any) -> tuple[int, int, int]:
+    if not (isinstance(value, (list, tuple)) and len(value) == 3):
+        raise _err(path, key, f"expected [H, S, V], got {value!r}")
+    try:
+        h, s, v = (int(x) for x in value)
+    except (TypeError, ValueError):
+        raise _err(path, key, f"expected three whole numbers, got {value!r}") from None
+    if not (0 <= h <= 179 and 0 <= s <= 255 and 0 <= v <= 255):
+        raise _err(path, key, f"OpenCV HSV needs H in 0..179 and S, V in 0..255, got {value!r}")
+    return (h, s, v)
+
+
+def target_from_dict(path, i: int, d: Any) -> Target:
+    where = f"targets[{i}]"
+    if not isinstance(d, dict):
+        raise _err(path, where, "expected a mapping with name, hsv_min, hsv_max, radius")
+    for key in ("name", "hsv_min", "hsv_max"):
+        if key not in d:
+            raise _err(path, f"{where}.{key}", "missing")
+    unknown = set(d) - {"name", "hsv_min", "hsv_max", "radius"}
+    if unknown:
+        raise _err(path, f"{where}.{sorted(unknown)[0]}", "unknown field (expected name, hsv_min, hsv_max, radius)")
+    lo = _hsv(path, f"{where}.hsv_min", d["hsv_min"])
+    hi = _hsv(path, f"{where}.hsv_max", d["hsv_max"])
+    if lo[1] > hi[1] or lo[2] > hi[2]:
+        raise _err(path, where, f"hsv_min {list(lo)} must not exceed hsv_max {list(hi)} in S and V (only H may wrap)")
+    try:
+        radius = float(d.get("radius", Target.radius))
+    except (TypeError, ValueError):
+        raise _err(path, f"{where}.radius", f"expected metres, got {d.get('radius')!r}") from None
+    if not 0.001 <= radius <= 1.0:
+        raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius}")
+    return Target(name=str(d["name"]), hsv_min=lo, hsv_max=hi, radius=radius)
+
+
+def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise _err(path, "<top level>", "expected a mapping with 'targets' and optional 'tracker'")
+    known = {f.name for f in dataclasses.fields(Config)}
+    for key in data:
+        if key not in known:
+            raise _err(path, str(key), f"unknown section (expected {', '.join(sorted(known))})")
+    raw_targets = data.get("targets") or []
+    if not isinstance(raw_targets, list):
+        raise _err(path, "targets", "expected a list of targets")
+    targets = tuple(target_from_dict(path, i, t) for i, t in enumerate(raw_targets))
+    names = [t.name for t in targets]
+    if len(set(names)) != len(names):
+        raise _err(path, "targets", f"target names must be unique, got {names}")
+    tracker = _section(path, "tracker", TrackerSettings, data.get("tracker"))
+    if tracker.d_min >= tracker.d_max:
+        raise _err(path, "tracker.d_min", f"must be less than d_max ({tracker.d_max}), got {tracker.d_min}")
+    if tracker.window % 2 == 0:
+        raise _err(path, "tracker.window", f"must be odd so the window is centred, got {tracker.window}")
+    return Config(targets=targets, tracker=tracker)
+
+
+def load_config(path: str | Path) -> Config:
+    path = Path(path)
+    if not path.is_file():
+        raise StereotrackError(f"{path}: config file not found")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    return config_from_dict(data, path)
+
+
+def target_to_dict(t: Target) -> dict[str, Any]:
+    return {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
+
+
+def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, Any]:
+    """Config -> YAML-able mapping; by default only settings that differ from the defaults."""
+    out: dict[str, Any] = {"targets": [target_to_dict(t) for t in config.targets]}
+    for f in dataclasses.fields(Config):
+        if f.name == "targets":
+            continue
+        section = getattr(config, f.name)
+        defaults = type(section)()
+        values = {
+            k.name: getattr(section, k.name)
+            for k in dataclasses.fields(section)
+            if include_defaults or getattr(section, k.name) != getattr(defaults, k.name)
+        }
+        if values:
+            out[f.name] = values
+    return out
+
+
+def save_config(config: Config, path: str | Path) -> None:
+    Path(path).write_text(yaml.safe_dump(config_to_dict(config), sort_keys=False, default_flow_style=None))
