@@ -12,12 +12,7 @@ import importlib
 import sys
 
 # Order is the order in `stereotrack --help`.
-COMMANDS = [
-    "demo",
-    "track",
-    "eval",
-    "synth",
-    "colour",
+COMMANDS: list[str] = [
 ]
 
 
