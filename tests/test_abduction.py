@@ -1,0 +1,54 @@
+import cv2
+import numpy as np
+
+from stereotrack.abduction import depth_range_from_size, find_blobs, particles_on_rays
+from stereotrack.camera import Camera, intrinsics_from_fov, look_at
+
+
+def disc_mask(centres, radius, shape=(480, 640)):
+    m = np.zeros(shape, np.uint8)
+    for c in centres:
+        cv2.circle(m, (int(round(c[0])), int(round(c[1]))), radius, 1, -1)
+    return m
+
+
+def test_components_find_each_disc():
+    centres = [(100, 100), (300, 100), (100, 300)]  # share a row and a column
+    blobs = find_blobs(disc_mask(centres, 10), "components", 6)
+    assert len(blobs) == 3
+    got = sorted(map(tuple, np.round(blobs.centres).astype(int)))
+    assert got == sorted(centres)
+    assert np.allclose(blobs.radii, 10.5, atol=1)
+
+
+def test_histogram_maxima_find_discs_and_drop_empty_ghosts():
+    centres = [(100, 100), (300, 100), (100, 300)]
+    blobs = find_blobs(disc_mask(centres, 10), "histogram", 6)
+    got = {tuple(c) for c in np.round(blobs.centres).astype(int)}
+    for c in centres:
+        assert any(abs(g[0] - c[0]) <= 1 and abs(g[1] - c[1]) <= 1 for g in got)
+    assert len(blobs) == 3  # the (300, 300) ghost has no colour and is dropped
+
+
+def test_rays_from_blobs_pass_through_the_ball():
+    K = intrinsics_from_fov(640, 480, 60)
+    R, t = look_at((-0.15, 0, 0), (0, 0, 1.5))
+    cam = Camera("cam0", (640, 480), K, np.zeros(5), R, t)
+    balls = np.array([[0.1, 0.05, 1.2], [-0.3, -0.1, 2.0]])
+    radius = 0.035
+    uv, _ = cam.project(balls)
+    r_px = [int(round(K[0, 0] * radius / cam.depth(balls)[i])) for i in range(2)]
+    mask = disc_mask(uv[:1], r_px[0]) | disc_mask(uv[1:], r_px[1])
+    blobs = find_blobs(mask, "components", 6)
+    o, d = cam.rays(blobs.centres)
+    near, far = depth_range_from_size(cam, blobs.radii, radius, 0.2, 5.0)
+    for ball in balls:
+        v = ball - o
+        dist = np.linalg.norm(v - (v * d).sum(1, keepdims=True) * d, axis=1)
+        i = int(np.argmin(dist))
+        assert dist[i] < 0.005  # the ray passes within 5 mm of the ball centre
+        along = float(v[i] @ d[i])
+        assert near[i] < along < far[i]  # the size-based range keeps the true distance
+    rng = np.random.default_rng(0)
+    pts, ray = particles_on_rays(o, d, near, far, 1001, rng)
+    assert len(pts) == 1001 and abs(np.bincount(ray)[0] - np.bincount(ray)[1]) <= 1
