@@ -53,9 +53,35 @@ class TrackerSettings:
 
 
 @dataclass(frozen=True)
+class TrackSettings:
+    """Persistent identities (tracks.py): a Kalman filter per track, gated global assignment, a lifecycle in seconds."""
+
+    gate: float = 11.34  # Mahalanobis gate on the squared distance (chi-square, 3 dof: 7.81 = 95%, 11.34 = 99%)
+    confirm_time: float = 0.1  # seconds of hits before a new track is confirmed (only confirmed tracks go to tracks.csv)
+    tentative_time: float = 0.05  # a tentative track unseen for longer than this, seconds, is dropped (clutter)
+    delete_time: float = 0.5  # a track unseen for longer than this, seconds, is deleted; a ball seen again sooner keeps its id
+    accel_noise: float = 30.0  # motion model: white-acceleration spectral density, m^2/s^3 (how fast a ball may change velocity)
+    measurement_sigma: float = 0.01  # metres, added to each object's own covariance as measurement noise
+    init_speed_sigma: float = 3.0  # velocity uncertainty of a new track, m/s
+    min_separation: float = 0.05  # metres; an unmatched object this close to a live track is that ball seen twice, not a new one
+    up: tuple[float, float, float] | None = None  # the world's up axis, e.g. [0, 0, 1], for gravity; none = no gravity (unknown rig)
+    g: float = 9.81  # gravity, m/s^2, used only when 'up' is set
+
+
+@dataclass(frozen=True)
+class BaselineSettings:
+    """The classic OpenCV pipeline (baseline.py, `stereotrack track --method baseline`)."""
+
+    max_epipolar_px: float = 4.0  # blobs further than this from each other's epipolar line are not paired, pixels
+    pixel_sigma: float = 1.0  # blob centroid noise, pixels; sets each triangulated point's covariance
+
+
+@dataclass(frozen=True)
 class Config:
     targets: tuple[Target, ...] = ()
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
+    tracks: TrackSettings = field(default_factory=TrackSettings)
+    baseline: BaselineSettings = field(default_factory=BaselineSettings)
 
 
 _RANGES: dict[str, tuple[float, float]] = {
@@ -71,6 +97,22 @@ _RANGES: dict[str, tuple[float, float]] = {
     "cluster_min_particles": (1, 1_000_000),
     "max_objects": (1, 1000),
 }
+# tracks: and baseline: sections
+_RANGES.update(
+    {
+        "gate": (0.1, 1000.0),
+        "confirm_time": (0.0, 60.0),
+        "tentative_time": (0.0, 60.0),
+        "delete_time": (0.0, 3600.0),
+        "accel_noise": (0.0, 1e6),
+        "measurement_sigma": (0.0, 10.0),
+        "init_speed_sigma": (0.0, 1000.0),
+        "min_separation": (0.0, 10.0),
+        "g": (0.0, 1000.0),
+        "max_epipolar_px": (0.0, 10000.0),
+        "pixel_sigma": (0.0, 1000.0),
+    }
+)
 _CHOICES: dict[str, tuple[str, ...]] = {"blob_method": ("components", "histogram")}
 
 
@@ -173,7 +215,24 @@ def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
         raise _err(path, "tracker.d_min", f"must be less than d_max ({tracker.d_max}), got {tracker.d_min}")
     if tracker.window % 2 == 0:
         raise _err(path, "tracker.window", f"must be odd so the window is centred, got {tracker.window}")
-    return Config(targets=targets, tracker=tracker)
+    tracks = _section(path, "tracks", TrackSettings, data.get("tracks"))
+    tracks = dataclasses.replace(tracks, up=up_axis(tracks.up, f"{path}: 'tracks.up'"))
+    baseline = _section(path, "baseline", BaselineSettings, data.get("baseline"))
+    return Config(targets=targets, tracker=tracker, tracks=tracks, baseline=baseline)
+
+
+def up_axis(value: Any, where: str = "up") -> tuple[float, float, float] | None:
+    """A world 'up' axis from YAML ([x, y, z], or none) -> unit 3-tuple or None; ``where`` names it in errors."""
+    if value is None:
+        return None
+    try:
+        v = [float(x) for x in value]
+    except (TypeError, ValueError):
+        v = []
+    norm = sum(x * x for x in v) ** 0.5 if len(v) == 3 else 0.0
+    if not 1e-9 < norm < float("inf"):
+        raise StereotrackError(f"{where}: expected the world's up axis as [x, y, z] (e.g. [0, 0, 1]) or none, got {value!r}")
+    return (v[0] / norm, v[1] / norm, v[2] / norm)
 
 
 def load_config(path: str | Path) -> Config:

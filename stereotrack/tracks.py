@@ -1,0 +1,223 @@
+"""Persistent identities: objects found each frame -> tracks with the same id over time.
+
+Each track is a constant-velocity Kalman filter on (position, velocity), with
+gravity as a known acceleration when the world's up axis is set. Every frame
+the tracks are predicted to the frame's time (dt from timestamps, not frame
+counts), this frame's objects are assigned to them globally (Hungarian,
+``scipy.optimize.linear_sum_assignment``) inside a Mahalanobis gate, and the
+lifecycle moves on:
+
+    tentative --(seen for confirm_time s)--> confirmed <--> coasting --(unseen for delete_time s)--> deleted
+    tentative --(unseen for tentative_time s)--> deleted
+
+All limits are in seconds, so a run behaves the same at 15, 30 or 60 fps.
+Objects of different targets never match each other; ids are positive
+integers unique across targets within a run.
+
+The motion noise is continuous white acceleration (spectral density
+``accel_noise``): unlike a per-frame noise it integrates to the same
+uncertainty over one second whatever the frame rate. A track unseen for a
+while simply keeps growing its covariance by the motion model (we do not
+"square the covariance when occluded": with variances below 1 m^2 that would
+shrink it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .config import TrackSettings
+from .results import Object3D, TrackEstimate
+
+_EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
+_INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
+
+TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
+
+
+@dataclass(eq=False)
+class _Track:
+    """One track's mutable filter state (private: the outside world sees TrackEstimate)."""
+
+    track_id: int
+    target: str
+    x: np.ndarray  # 6: position (m), velocity (m/s)
+    P: np.ndarray  # 6 x 6 covariance
+    time: float  # time of x and P, seconds
+    born: float  # time of the first hit
+    last_hit: float  # time of the latest hit
+    confirmed: bool = False
+    hit: bool = True  # matched in the latest update
+    n_particles: int = 0
+
+
+def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constant-velocity transition over ``dt`` seconds: (F 6x6, Q 6x6, b 6) with x' = F x + b.
+
+    Q is the continuous white-acceleration model (q = accel_noise m^2/s^3),
+    b the known gravity acceleration (zero when ``gravity`` is None).
+    """
+    eye = np.eye(3)
+    F = np.eye(6)
+    F[:3, 3:] = dt * eye
+    q = accel_noise
+    Q = np.block([[q * dt**3 / 3 * eye, q * dt**2 / 2 * eye], [q * dt**2 / 2 * eye, q * dt * eye]])
+    b = np.zeros(6)
+    if gravity is not None:
+        b[:3] = 0.5 * gravity * dt * dt
+        b[3:] = gravity * dt
+    return F, Q, b
+
+
+class TrackManager:
+    """Keeps identities over time for every target's objects.
+
+    >>> manager = TrackManager(config.tracks)
+    >>> for frame in frames:
+    ...     hints = manager.predicted(frame.time)       # where live tracks should be now
+    ...     objects = ...                               # this frame's Object3Ds
+    ...     tracks = manager.update(objects, frame.time)
+    """
+
+    def __init__(self, settings: TrackSettings | None = None):
+        self.settings = settings or TrackSettings()
+        up = self.settings.up
+        self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
+        self._tracks: list[_Track] = []
+        self._next_id = 1
+
+    # ------------------------------------------------------------------ public
+
+    def predicted(self, time: float) -> tuple[TrackEstimate, ...]:
+        """Every live track predicted to ``time`` (seconds), without changing any state.
+
+        Positions, velocities and position covariances come from the motion
+        model alone (no measurement of this frame); ``state`` is the track's
+        state after the previous update. Call it before ``update`` with the
+        same time, e.g. to keep particles of one ball out of another ball.
+        """
+        out = []
+        for tr in self._tracks:
+            x, P = self._predict(tr, time)
+            out.append(self._estimate(tr, x, P))
+        return tuple(out)
+
+    def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
+        """Take this frame's objects (seen at ``time`` seconds); return every live track after the update.
+
+        Deleted tracks are gone from the result; ``state`` tells tentative,
+        confirmed (seen this frame) and coasting (confirmed, unseen this frame).
+        """
+        s = self.settings
+        for tr in self._tracks:
+            tr.x, tr.P = self._predict(tr, time)
+            tr.time = time
+            tr.hit = False
+        by_target: dict[str, list[int]] = {}
+        for i, obj in enumerate(objects):
+            by_target.setdefault(obj.target, []).append(i)
+        for target, idx in by_target.items():
+            objs = [objects[i] for i in idx]
+            z = np.array([o.position for o in objs], float).reshape(-1, 3)
+            R = np.stack([self._measurement_cov(o) for o in objs]) if objs else np.zeros((0, 3, 3))
+            free = np.ones(len(objs), bool)
+            # Confirmed (and coasting) tracks choose first, so a clutter track never steals a ball's object.
+            for stage in (True, False):
+                tracks = [t for t in self._tracks if t.target == target and t.confirmed == stage]
+                cols = np.flatnonzero(free)
+                if not tracks or not len(cols):
+                    continue
+                for ti, cj in self._assign(tracks, z[cols], R[cols]):
+                    j = cols[cj]
+                    self._correct(tracks[ti], z[j], R[j], objs[j], time)
+                    free[j] = False
+            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects).
+            live = np.array([t.x[:3] for t in self._tracks if t.target == target]).reshape(-1, 3)
+            for j in np.flatnonzero(free):
+                if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
+                    continue
+                self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time))
+                live = np.vstack([live, z[j]])
+        self._tracks = [t for t in self._tracks if not self._expired(t, time)]
+        return tuple(self._estimate(t, t.x, t.P) for t in self._tracks)
+
+    def reset(self) -> None:
+        """Forget every track (ids keep counting up: they stay unique within the run)."""
+        self._tracks = []
+
+    def __len__(self) -> int:
+        return len(self._tracks)
+
+    # ------------------------------------------------------------------ steps
+
+    def _predict(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray]:
+        dt = max(0.0, time - tr.time)
+        if dt == 0.0:
+            return tr.x.copy(), tr.P.copy()
+        F, Q, b = motion_model(dt, self.settings.accel_noise, self.gravity)
+        return F @ tr.x + b, F @ tr.P @ F.T + Q
+
+    def _measurement_cov(self, obj: Object3D) -> np.ndarray:
+        R = np.eye(3) * self.settings.measurement_sigma**2
+        cov = np.asarray(obj.covariance, float) if obj.covariance is not None else None
+        if cov is not None and cov.shape == (3, 3) and np.all(np.isfinite(cov)):
+            R = R + 0.5 * (cov + cov.T)
+        if np.linalg.det(R) <= 0:  # zero noise everywhere: keep the filter invertible
+            R = R + np.eye(3) * 1e-8
+        return R
+
+    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray) -> list[tuple[int, int]]:
+        """Gated global assignment: pairs (track index, object index) with squared Mahalanobis distance <= gate."""
+        pos = np.array([t.x[:3] for t in tracks])  # T x 3
+        Pp = np.array([t.P[:3, :3] for t in tracks])  # T x 3 x 3
+        S = Pp[:, None] + R[None]  # T x M x 3 x 3
+        y = z[None] - pos[:, None]  # T x M x 3
+        d2 = np.einsum("tmi,tmi->tm", y, np.linalg.solve(S, y[..., None])[..., 0])
+        # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
+        cost = d2 + np.linalg.slogdet(S)[1]
+        gated = d2 <= self.settings.gate
+        rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
+        return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]
+
+    def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+        H = np.hstack([np.eye(3), np.zeros((3, 3))])
+        S = tr.P[:3, :3] + R
+        K = np.linalg.solve(S, tr.P[:3, :]).T  # P H^T S^-1 (S symmetric)
+        tr.x = tr.x + K @ (z - tr.x[:3])
+        IKH = np.eye(6) - K @ H
+        tr.P = IKH @ tr.P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive definite
+        tr.hit = True
+        tr.last_hit = time
+        tr.n_particles = int(obj.n_particles)
+        if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
+            tr.confirmed = True
+
+    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> _Track:
+        P = np.zeros((6, 6))
+        P[:3, :3] = R
+        P[3:, 3:] = np.eye(3) * self.settings.init_speed_sigma**2
+        tr = _Track(self._next_id, target, np.r_[z, 0.0, 0.0, 0.0], P, time, time, time, n_particles=int(obj.n_particles))
+        tr.confirmed = self.settings.confirm_time <= _EPS_TIME
+        self._next_id += 1
+        return tr
+
+    def _expired(self, tr: _Track, time: float) -> bool:
+        limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
+        return time - tr.last_hit > limit + _EPS_TIME
+
+    @staticmethod
+    def _estimate(tr: _Track, x: np.ndarray, P: np.ndarray) -> TrackEstimate:
+        state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
+        return TrackEstimate(
+            track_id=tr.track_id,
+            target=tr.target,
+            position=x[:3].copy(),
+            velocity=x[3:].copy(),
+            covariance=P[:3, :3].copy(),
+            state=state,
+            n_particles=tr.n_particles,
+        )

@@ -1,0 +1,252 @@
+"""Persistent tracks on synthetic object streams (no rendering): identities, lifecycle in seconds, gravity."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stereotrack.config import TrackSettings, config_from_dict
+from stereotrack.errors import StereotrackError
+from stereotrack.results import Object3D
+from stereotrack.tracks import TrackManager, motion_model
+
+SIGMA = 0.005  # measurement noise of the synthetic objects, metres
+
+
+def obj(pos, target="red", sigma=SIGMA, n=100):
+    return Object3D(target=target, position=np.asarray(pos, float), covariance=np.eye(3) * sigma**2, mass=0.5, n_particles=n)
+
+
+def run(manager, stream):
+    """stream: list of (time, [Object3D...]) -> list of (time, tracks)."""
+    return [(t, manager.update(objs, t)) for t, objs in stream]
+
+
+def nearest_confirmed_ids(history, truth_fn, max_dist=0.05):
+    """For each truth ball, the ids of the confirmed tracks nearest to it over time (frames where one is near)."""
+    ids = {}
+    for t, tracks in history:
+        truth = truth_fn(t)
+        conf = [tr for tr in tracks if tr.state == "confirmed"]
+        for k, p in enumerate(truth):
+            if p is None or not conf:
+                continue
+            d = [np.linalg.norm(tr.position - p) for tr in conf]
+            if min(d) < max_dist:
+                ids.setdefault(k, []).append(conf[int(np.argmin(d))].track_id)
+    return ids
+
+
+@pytest.mark.parametrize("fps", [15, 30, 60])
+def test_ids_stable_through_a_crossing_with_merged_detections(fps):
+    """Two balls pass each other 8 cm apart at 2 m/s; while they are within 18 cm the clustering sees one merged object."""
+    rng = np.random.default_rng(fps)
+    settings = TrackSettings()
+    m = TrackManager(settings)
+
+    def truth(t):
+        return [np.array([-1.0 + 2.0 * t, 0.0, 2.0]), np.array([1.0 - 2.0 * t, 0.08, 2.0])]
+
+    stream, merged = [], set()
+    for i in range(int(fps * 1.0) + 1):
+        t = i / fps
+        a, b = truth(t)
+        if np.linalg.norm(a - b) < 0.18:
+            objs = [obj((a + b) / 2 + rng.normal(0, SIGMA, 3), sigma=0.03)]
+            merged.add(t)
+        else:
+            objs = [obj(a + rng.normal(0, SIGMA, 3)), obj(b + rng.normal(0, SIGMA, 3))]
+        stream.append((t, objs))
+    assert len(merged) >= 2
+    history = run(m, stream)
+    # Which track is nearest each ball, in the frames where the two are seen apart (before and after the merge).
+    ids = nearest_confirmed_ids([(t, trs) for t, trs in history if t not in merged], truth)
+    assert set(ids) == {0, 1}
+    # Each ball keeps one id for the whole run, and the two ids differ.
+    assert len(set(ids[0])) == 1 and len(set(ids[1])) == 1
+    assert ids[0][0] != ids[1][0]
+    # No extra track was ever confirmed (the merged object did not spawn one).
+    confirmed = {tr.track_id for _, trs in history for tr in trs if tr.state != "tentative"}
+    assert confirmed == {ids[0][0], ids[1][0]}
+
+
+def test_ids_stable_when_two_balls_swap_sides_in_depth():
+    """Balls crossing at 7 cm (touching) with noisy detections: the Hungarian assignment keeps both ids."""
+    rng = np.random.default_rng(5)
+    m = TrackManager(TrackSettings())
+
+    def truth(t):
+        return [np.array([-0.6 + 1.5 * t, 0.035, 2.0 + 0.3 * t]), np.array([0.6 - 1.5 * t, -0.035, 2.3 - 0.3 * t])]
+
+    stream = [(i / 30, [obj(p + rng.normal(0, SIGMA, 3)) for p in truth(i / 30)]) for i in range(31)]
+    ids = nearest_confirmed_ids(run(m, stream), truth)
+    assert len(set(ids[0])) == 1 and len(set(ids[1])) == 1 and ids[0][0] != ids[1][0]
+    assert len(ids[0]) >= 27 and len(ids[1]) >= 27  # confirmed after 0.1 s, then every frame
+
+
+def _thrown_ball(t):
+    """A ball thrown up and sideways in a z-up world, metres."""
+    p0, v0 = np.array([0.0, 0.0, 1.0]), np.array([0.8, 0.0, 4.0])
+    return p0 + v0 * t + 0.5 * np.array([0.0, 0.0, -9.81]) * t * t
+
+
+@pytest.mark.parametrize("up", [None, (0.0, 0.0, 1.0)])
+def test_same_id_after_a_short_full_occlusion(up):
+    """A ball hidden for 0.3 s (under the 0.5 s deletion limit) comes back with the same id."""
+    rng = np.random.default_rng(3)
+    m = TrackManager(TrackSettings(up=up))
+    history = []
+    for i in range(int(0.8 * 30) + 1):
+        t = i / 30
+        hidden = 0.3 <= t < 0.6
+        objs = [] if hidden else [obj(_thrown_ball(t) + rng.normal(0, SIGMA, 3))]
+        history.append((t, m.update(objs, t)))
+    states = [[tr.state for tr in trs] for _, trs in history]
+    ids = {tr.track_id for _, trs in history for tr in trs}
+    assert ids == {1}
+    assert all(s == ["coasting"] for (t, _), s in zip(history, states) if 0.3 <= t < 0.6)
+    assert states[-1] == ["confirmed"]
+    err = np.linalg.norm(history[-1][1][0].position - _thrown_ball(history[-1][0]))
+    assert err < 0.02
+
+
+def test_gravity_keeps_the_prediction_on_the_arc():
+    """After 0.25 s unseen, the predicted free-falling ball is within 3 cm with gravity, tens of cm off without."""
+    rng = np.random.default_rng(4)
+    errors = {}
+    for up in (None, (0.0, 0.0, 1.0)):
+        m = TrackManager(TrackSettings(up=up))
+        for i in range(10):
+            t = i / 60
+            m.update([obj(_thrown_ball(t) + rng.normal(0, 0.002, 3), sigma=0.002)], t)
+        t_hidden = 9 / 60 + 0.25
+        (pred,) = m.predicted(t_hidden)
+        errors[up] = np.linalg.norm(pred.position - _thrown_ball(t_hidden))
+    assert errors[(0.0, 0.0, 1.0)] < 0.03
+    assert errors[None] > 0.2
+
+
+def test_new_id_after_a_long_absence():
+    m = TrackManager(TrackSettings())
+    p = np.array([0.2, 0.1, 1.5])
+    history = []
+    for i in range(60):
+        t = i / 30
+        seen = t < 0.5 or t >= 1.4  # gone for 0.9 s > delete_time
+        history.append((t, m.update([obj(p)] if seen else [], t)))
+    first = {tr.track_id for t, trs in history if t < 0.5 for tr in trs}
+    last = {tr.track_id for t, trs in history if t >= 1.4 for tr in trs}
+    assert first == {1} and last == {2}
+    # Between the deletion and the return there is no track at all.
+    gone = [t for t, trs in history if not trs]
+    assert gone and min(gone) == pytest.approx(0.5 - 1 / 30 + 0.5 + 1 / 30, abs=1e-9)
+
+
+@pytest.mark.parametrize("fps", [15, 30, 60])
+def test_lifecycle_limits_are_in_seconds(fps):
+    """Confirmation, tentative drop and deletion happen at the same times (within one frame) at any frame rate."""
+    s = TrackSettings(confirm_time=0.1, tentative_time=0.05, delete_time=0.5)
+    m = TrackManager(s)
+    frame = 1 / fps
+    ball, clutter = np.array([0.0, 0.0, 2.0]), np.array([0.5, 0.0, 2.0])
+    confirmed_at = clutter_gone_at = deleted_at = None
+    last_seen = None
+    for i in range(int(2.0 * fps)):
+        t = i * frame
+        objs = []
+        if t < 1.0:
+            objs.append(obj(ball))
+            last_seen = t
+        if i == 3:
+            objs.append(obj(clutter))  # one frame of clutter
+        tracks = m.update(objs, t)
+        ball_tracks = [tr for tr in tracks if tr.track_id == 1]
+        if confirmed_at is None and ball_tracks and ball_tracks[0].state == "confirmed":
+            confirmed_at = t
+        if i > 3 and clutter_gone_at is None and not any(tr.track_id == 2 for tr in tracks):
+            clutter_gone_at = t
+        if i > 3:
+            assert all(tr.state == "tentative" for tr in tracks if tr.track_id == 2)
+        if t > 1.0 and ball_tracks:
+            assert ball_tracks[0].state == "coasting"
+        if last_seen is not None and t > last_seen and not ball_tracks and deleted_at is None:
+            deleted_at = t
+    assert 0.1 - 1e-9 <= confirmed_at < 0.1 + frame
+    assert 0.05 < clutter_gone_at - 3 * frame <= 0.05 + frame + 1e-9
+    assert 0.5 < deleted_at - last_seen <= 0.5 + frame + 1e-9
+
+
+def test_targets_never_share_tracks_and_ids_are_unique():
+    m = TrackManager(TrackSettings(confirm_time=0.0))
+    p = np.array([0.0, 0.0, 1.0])
+    tracks = m.update([obj(p, "red"), obj(p, "blue"), obj(p + 0.5, "blue")], 0.0)
+    assert sorted(tr.track_id for tr in tracks) == [1, 2, 3]
+    assert {tr.target for tr in tracks} == {"red", "blue"}
+    tracks = m.update([obj(p, "blue")], 0.033)  # only the blue ball at p is seen
+    seen = [tr for tr in tracks if tr.state == "confirmed"]
+    assert len(seen) == 1 and seen[0].target == "blue" and seen[0].track_id == 2
+
+
+def test_object_on_a_live_track_does_not_start_a_second_track():
+    m = TrackManager(TrackSettings())
+    p = np.array([0.0, 0.0, 1.0])
+    m.update([obj(p)], 0.0)
+    tracks = m.update([obj(p), obj(p + [0.02, 0, 0])], 1 / 30)  # one ball split into two clusters
+    assert len(tracks) == 1
+    tracks = m.update([obj(p), obj(p + [0.07, 0, 0])], 2 / 30)  # a touching second ball is a new track
+    assert len(tracks) == 2
+
+
+def test_filter_is_more_accurate_than_the_measurements():
+    """Constant-velocity ball, 1 cm noise, a smooth motion model: the filtered positions beat the raw objects."""
+    rng = np.random.default_rng(7)
+    m = TrackManager(TrackSettings(measurement_sigma=0.0, accel_noise=1.0))
+    raw, filt = [], []
+    for i in range(90):
+        t = i / 30
+        truth = np.array([-1.0 + 1.0 * t, 0.5 * t, 2.0])
+        z = truth + rng.normal(0, 0.01, 3)
+        (tr,) = m.update([obj(z, sigma=0.01)], t)
+        if i >= 10:
+            raw.append(np.linalg.norm(z - truth))
+            filt.append(np.linalg.norm(tr.position - truth))
+    assert np.mean(filt) < 0.8 * np.mean(raw)
+    assert np.linalg.norm(tr.velocity - [1.0, 0.5, 0.0]) < 0.25
+
+
+def test_predicted_does_not_change_state():
+    m = TrackManager(TrackSettings())
+    for i in range(5):
+        m.update([obj([0.1 * i, 0.0, 1.0])], i * 0.1)
+    a = m.predicted(0.6)
+    b = m.predicted(0.6)
+    assert np.array_equal(a[0].position, b[0].position)
+    assert a[0].position[0] == pytest.approx(0.6, abs=0.02)  # extrapolated at 1 m/s
+    (after,) = m.update([], 0.5)
+    assert after.position[0] == pytest.approx(0.5, abs=0.02)
+    assert np.all(np.linalg.eigvalsh(a[0].covariance) > 0)
+
+
+def test_motion_model_is_rate_independent():
+    """Two steps of dt/2 give the same prediction and covariance as one step of dt (continuous noise model)."""
+    g = np.array([0.0, 0.0, -9.81])
+    F, Q, b = motion_model(0.1, 30.0, g)
+    F2, Q2, b2 = motion_model(0.05, 30.0, g)
+    x = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 3.0])
+    P = np.diag([1e-4] * 3 + [1.0] * 3)
+    assert np.allclose(F @ x + b, F2 @ (F2 @ x + b2) + b2)
+    assert np.allclose(F @ P @ F.T + Q, F2 @ (F2 @ P @ F2.T + Q2) @ F2.T + Q2)
+
+
+def test_tracks_settings_from_yaml():
+    cfg = config_from_dict({"tracks": {"up": [0, 0, 2], "delete_time": 1.0}, "baseline": {"max_epipolar_px": 2.5}})
+    assert cfg.tracks.up == (0.0, 0.0, 1.0) and cfg.tracks.delete_time == 1.0
+    assert cfg.baseline.max_epipolar_px == 2.5
+    assert config_from_dict({}).tracks.up is None
+    with pytest.raises(StereotrackError, match="tracks.up"):
+        config_from_dict({"tracks": {"up": [0, 0]}}, "c.yaml")
+    with pytest.raises(StereotrackError, match="tracks.delete_tme.*did you mean 'delete_time'"):
+        config_from_dict({"tracks": {"delete_tme": 1}}, "c.yaml")
+    with pytest.raises(StereotrackError, match="tracks.gate"):
+        config_from_dict({"tracks": {"gate": -1}}, "c.yaml")
+    assert replace(cfg.tracks, up=None).up is None
