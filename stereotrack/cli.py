@@ -13,6 +13,8 @@ import sys
 
 # Order is the order in `stereotrack --help`.
 COMMANDS: list[str] = [
+    "record",
+    "cameras",
 ]
 
 
