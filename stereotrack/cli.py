@@ -13,8 +13,13 @@ import sys
 
 # Order is the order in `stereotrack --help`.
 COMMANDS: list[str] = [
+    "demo",
+    "track",
+    "eval",
+    "colour",
     "record",
     "cameras",
+    "synth",
 ]
 
 

@@ -1,0 +1,90 @@
+"""Target colours: learn an HSV range from a region of a recorded frame.
+
+  stereotrack colour learn RECORDING --frame N --camera cam0 --roi x,y,w,h --name pink
+
+Draw the region tightly around one ball (pixel coordinates: x, y of the
+top-left corner, width, height; a rerun view of the recording shows them).
+The learned target is written to --config (default: the recording's own
+targets file, created and named in its meta.yaml if it has none), replacing
+a target of the same name. It warns when the range also covers much of the
+rest of the image, which would make the tracker chase the background.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "learn a target colour's HSV range from a region of a frame"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="colour_command", metavar="ACTION", required=True)
+    learn = sub.add_parser("learn", help="learn a target from a region of a frame", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    learn.add_argument("recording", help="recording folder")
+    learn.add_argument("--frame", type=int, default=0, help="frame number (default 0)")
+    learn.add_argument("--camera", default=None, help="camera name (default: the first)")
+    learn.add_argument("--roi", required=True, help="region x,y,w,h in pixels, tight around one ball")
+    learn.add_argument("--name", required=True, help="target name, e.g. pink")
+    learn.add_argument("--radius", type=float, default=None, help="ball radius in metres (default: keep the target's, else 0.035)")
+    learn.add_argument("--config", help="config YAML to write/update (default: the recording's targets file)")
+    learn.set_defaults(_run=run_learn)
+
+
+def run(args) -> int:  # pragma: no cover - argparse requires an action
+    return 2
+
+
+def _parse_roi(text: str) -> tuple[int, int, int, int]:
+    from ..errors import StereotrackError
+
+    try:
+        x, y, w, h = (int(v) for v in text.split(","))
+    except ValueError:
+        raise StereotrackError(f"--roi must be x,y,w,h in whole pixels, got {text!r}") from None
+    return x, y, w, h
+
+
+def run_learn(args) -> int:
+    from dataclasses import replace
+    from pathlib import Path
+
+    import yaml
+
+    from ..colour import learn_target
+    from ..config import Config, config_from_dict, load_config, save_config
+    from ..console import info, warn
+    from ..errors import StereotrackError
+    from ..recording import open_recording
+
+    rec = open_recording(args.recording)
+    names = list(rec.camera_names)
+    cam = args.camera or names[0]
+    if cam not in names:
+        raise StereotrackError(f"--camera {cam!r}: the recording's cameras are {', '.join(names)}")
+    if not 0 <= args.frame < rec.n_frames:
+        raise StereotrackError(f"--frame {args.frame} is outside the recording's {rec.n_frames} frames")
+    pair = next(rec.frames(args.frame, args.frame + 1))
+    image = pair.images[names.index(cam)]
+    if args.config:
+        path = Path(args.config)
+    elif rec.targets_path is not None:
+        path = rec.targets_path
+    else:
+        path = rec.folder / "config.yaml"
+    config = load_config(path) if path.is_file() else config_from_dict({}, path)
+    old = {t.name: t for t in config.targets}
+    radius = args.radius if args.radius is not None else (old[args.name].radius if args.name in old else 0.035)
+    learned = learn_target(image, _parse_roi(args.roi), args.name, radius=radius)
+    t = learned.target
+    targets = tuple(t if o.name == t.name else o for o in config.targets) if t.name in old else (*config.targets, t)
+    save_config(replace(config, targets=targets), path)
+    if not args.config and rec.targets_path is None:
+        meta = dict(rec.meta)
+        meta["targets"] = path.name
+        (rec.folder / "meta.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
+    info(f"target {t.name!r}: hsv_min {list(t.hsv_min)}, hsv_max {list(t.hsv_max)}, radius {t.radius} m -> {path}")
+    info(f"covers {100 * learned.roi_coverage:.0f}% of the region and {100 * learned.background_coverage:.2f}% of the rest of the image")
+    if learned.background_coverage > 0.01:
+        warn(f"the range also covers {100 * learned.background_coverage:.1f}% of the image outside the region: "
+             "the tracker may chase background of that colour; pick a tighter region, improve the lighting, or edit hsv_min/hsv_max")
+    return 0

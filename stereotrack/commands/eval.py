@@ -1,0 +1,33 @@
+"""Score a tracks CSV against ground truth: CLEAR MOT and 3D error.
+
+MOTA, MOTP (mm), misses, false positives and id switches, with a distance
+gate (a track further than the gate from a true ball does not match it),
+plus the mean and 95th-percentile 3D error of the matches.
+
+example:
+  stereotrack eval recordings/demo/tracks.csv recordings/demo/truth.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+HELP = "score tracks.csv against truth.csv (CLEAR MOT, 3D error)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("tracks", help="tracks CSV written by 'stereotrack track'")
+    p.add_argument("truth", help="ground truth CSV (frame,object_id,x,y,z)")
+    p.add_argument("--gate", type=float, default=0.1, help="match distance in metres (default 0.1)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+
+
+def run(args) -> int:
+    from ..evaluate import evaluate
+    from ..recording import read_truth
+    from ..trackfile import read_tracks
+
+    ev = evaluate(read_tracks(args.tracks), read_truth(args.truth), gate=args.gate)
+    print(json.dumps(ev.as_dict(), indent=2) if args.json else ev.table())
+    return 0

@@ -1,0 +1,125 @@
+"""The mixed particle population (paper Table I): CONDENSATION + abductive importance sampling.
+
+Each frame, for one target colour:
+1. sequential part, (1 - alpha) N particles: systematic resampling from last
+   frame's combined weighted set, then the motion model (drift by the
+   particle's velocity, if its ball has one, plus an isotropic Gaussian
+   random walk), weighted by eq. 14 and normalised to sum to 1 - alpha;
+2. abductive part, alpha N particles: placed uniformly along the viewing
+   rays of this frame's colour blobs (depth range narrowed by the ball's
+   apparent size), weighted by eq. 14 and normalised to sum to alpha.
+Good abductive particles survive into the next sequential part; bad ones die.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .abduction import Blobs, depth_range_from_size, particles_on_rays
+from .camera import Camera
+from .clustering import systematic_indices
+from .config import TrackerSettings
+from .likelihood import likelihood
+
+
+@dataclass(frozen=True, eq=False)
+class PopulationState:
+    """One target's particles after a step."""
+
+    positions: np.ndarray  # N x 3
+    velocities: np.ndarray  # N x 3, metres per second (zero unless a track lends one)
+    weights: np.ndarray  # N, summing to 1
+    likelihoods: np.ndarray  # N, eq. 14 values (1 = full windows in every camera)
+    abductive: np.ndarray  # N bool
+
+
+def split_counts(n: int, alpha: float) -> tuple[int, int]:
+    """(sequential, abductive) particle counts for N and alpha."""
+    n_abd = int(round(alpha * n))
+    return n - n_abd, n_abd
+
+
+def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: np.random.Generator) -> np.ndarray:
+    """Particles spread over the camera's field of view between d_min and d_max (no information)."""
+    uv = rng.random((n, 2)) * np.array([camera.width, camera.height])
+    o, d = camera.rays(uv)
+    dist = d_min + rng.random(n) * (d_max - d_min)
+    return o + dist[:, None] * d
+
+
+class Population:
+    """The particle population of one target, stepped frame by frame."""
+
+    def __init__(self, cameras: Sequence[Camera], settings: TrackerSettings, radius: float, rng: np.random.Generator):
+        self.cameras = tuple(cameras)
+        self.settings = settings
+        self.radius = radius
+        self.rng = rng
+        self.state: PopulationState | None = None
+
+    def _abductive(self, blobs: Sequence[Blobs], n: int) -> np.ndarray:
+        s = self.settings
+        origins, dirs, near, far = [], [], [], []
+        for cam, b in zip(self.cameras, blobs):
+            if len(b) == 0:
+                continue
+            o, d = cam.rays(b.centres)
+            if s.depth_from_size:
+                lo, hi = depth_range_from_size(cam, b.radii, self.radius, s.d_min, s.d_max)
+            else:
+                lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
+            origins.append(o)
+            dirs.append(d)
+            near.append(lo)
+            far.append(hi)
+        if not origins:  # nothing of this colour in any image: search blindly
+            return frustum_particles(self.cameras[0], n, s.d_min, s.d_max, self.rng)
+        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n, self.rng)
+        return pts
+
+    def step(
+        self,
+        integrals: Sequence[np.ndarray],
+        blobs: Sequence[Blobs],
+        dt: float,
+        velocities: np.ndarray | None = None,
+    ) -> PopulationState:
+        """Advance one frame. ``velocities`` (N x 3) replaces the particles' drift, e.g. from tracks."""
+        s = self.settings
+        n_seq, n_abd = split_counts(s.particles, s.alpha)
+        rng = self.rng
+        if n_seq:
+            if self.state is None:
+                seq = frustum_particles(self.cameras[0], n_seq, s.d_min, s.d_max, rng)
+                seq_vel = np.zeros_like(seq)
+            else:
+                idx = systematic_indices(self.state.weights, n_seq, rng)
+                vel = self.state.velocities if velocities is None else velocities
+                seq_vel = vel[idx]
+                seq = self.state.positions[idx] + seq_vel * dt + rng.normal(0.0, s.motion_sigma, (n_seq, 3))
+        else:
+            seq, seq_vel = np.zeros((0, 3)), np.zeros((0, 3))
+        abd = self._abductive(blobs, n_abd) if n_abd else np.zeros((0, 3))
+        positions = np.vstack([seq, abd])
+        lik = likelihood(self.cameras, integrals, positions, s.window)
+        weights = np.empty(len(positions))
+        alpha_eff = 0.0 if n_seq == 0 else s.alpha
+        parts = [(slice(0, n_seq), 1.0 - alpha_eff if n_abd else 1.0), (slice(n_seq, None), alpha_eff if n_seq else 1.0)]
+        for part, share in parts:
+            total = lik[part].sum()
+            if lik[part].size:
+                weights[part] = share * lik[part] / total
+        weights /= weights.sum()
+        velocities_out = np.vstack([seq_vel, np.zeros((n_abd, 3))])
+        abductive = np.r_[np.zeros(n_seq, bool), np.ones(n_abd, bool)]
+        self.state = PopulationState(positions, velocities_out, weights, lik, abductive)
+        return self.state
+
+    def set_velocities(self, velocities: np.ndarray) -> None:
+        """Give the current particles a drift (metres per second), used by the next step."""
+        if self.state is not None:
+            st = self.state
+            self.state = PopulationState(st.positions, velocities, st.weights, st.likelihoods, st.abductive)

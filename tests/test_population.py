@@ -1,0 +1,72 @@
+import numpy as np
+import pytest
+
+from stereotrack.abduction import find_blobs
+from stereotrack.config import TrackerSettings
+from stereotrack.population import Population, split_counts
+
+from scene_helpers import RADIUS, default_rig, disc_masks
+
+BALLS = np.array([[-0.2, 1.3, 0.0], [0.25, 1.9, 0.1]])
+
+
+def share_near(state, ball, radius=2 * RADIUS):
+    near = np.linalg.norm(state.positions - ball, axis=1) < radius
+    return float(state.weights[near].sum()), float(near.mean())
+
+
+def run_population(alpha, frames=40, seed=0, particles=1000):
+    rig = default_rig()
+    masks, integrals = disc_masks(rig, BALLS)
+    blobs = [find_blobs(m) for m in masks]
+    pop = Population(rig.cameras, TrackerSettings(particles=particles, alpha=alpha), RADIUS, np.random.default_rng(seed))
+    for _ in range(frames):
+        state = pop.step(integrals, blobs, dt=1 / 30)
+    return state
+
+
+def test_split_counts():
+    assert split_counts(1000, 0.2) == (800, 200)
+    assert split_counts(1000, 0.0) == (1000, 0)
+    assert split_counts(1000, 1.0) == (0, 1000)
+
+
+def test_weights_split_alpha_between_parts():
+    state = run_population(0.3, frames=5)
+    assert state.weights.sum() == pytest.approx(1.0)
+    assert state.weights[state.abductive].sum() == pytest.approx(0.3)
+    assert state.abductive.sum() == 300
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_alpha_zero_collapses_onto_one_mode(seed):
+    """Paper Table II: pure CONDENSATION abandons all but one ball (or a stereo ghost of both)."""
+    state = run_population(0.0, frames=200, seed=seed)
+    shares = sorted(share_near(state, b)[1] for b in BALLS)
+    assert shares[0] < 0.03
+    centre = np.median(state.positions, axis=0)
+    assert (np.linalg.norm(state.positions - centre, axis=1) < 0.15).mean() > 0.6  # one compact mode
+
+
+@pytest.mark.parametrize("alpha", [0.1, 0.2, 0.5])
+def test_alpha_positive_keeps_particles_on_both_balls(alpha):
+    state = run_population(alpha, frames=40)
+    for b in BALLS:
+        assert share_near(state, b)[1] >= 0.05
+
+
+def test_alpha_one_puts_every_particle_on_a_blob_ray():
+    rig = default_rig()
+    masks, integrals = disc_masks(rig, BALLS)
+    blobs = [find_blobs(m) for m in masks]
+    pop = Population(rig.cameras, TrackerSettings(particles=500, alpha=1.0), RADIUS, np.random.default_rng(0))
+    state = pop.step(integrals, blobs, dt=1 / 30)
+    assert state.abductive.all() and state.weights.sum() == pytest.approx(1.0)
+    # Every particle projects onto a ball's disc in the camera whose ray placed it.
+    on_disc = np.zeros(len(state.positions), bool)
+    for cam, m in zip(rig.cameras, masks):
+        uv, ok = cam.project(state.positions)
+        u = np.clip(np.rint(uv[:, 0]).astype(int), 0, cam.width - 1)
+        v = np.clip(np.rint(uv[:, 1]).astype(int), 0, cam.height - 1)
+        on_disc |= ok & (m[v, u] == 1)
+    assert on_disc.all()
