@@ -1,0 +1,685 @@
+"""The rerun viewer sink: cameras, images, particles, objects, tracks and time series.
+
+The only module that imports rerun, and only when a viewer output is asked
+for: ``import stereotrack.viz`` costs nothing, ``RerunSink`` loads rerun.
+
+Entity layout (what the README's viewer section explains)::
+
+    world                          the rig's world frame (RDF when it is a camera's frame)
+    world/cameras/<cam>            Transform3D camera-from-world (OpenCV R, t) + Pinhole (K)
+    world/cameras/<cam>/image      the camera image (JPEG or raw)
+    world/cameras/<cam>/mask       colour masks, one class id per target (optional)
+    world/cameras/<cam>/objects    clusters projected into the image (points)
+    world/cameras/<cam>/windows    the ball's image footprint around each object (boxes)
+    world/cameras/<cam>/tracks     confirmed tracks projected into the image, labelled
+    world/particles/<target>       particles, coloured by cluster; class 0 sequential, 1 abductive
+    world/rays/<target>/<cam>      abduction viewing rays (optional)
+    world/objects                  clusters this frame (points)
+    world/tracks                   confirmed tracks: spheres of the ball's radius, labelled
+    world/tracks/covariance        2-sigma position covariance ellipsoids
+    world/tracks/trails            the last seconds of every track, fading
+    world/truth                    ground truth, when the recording has truth.csv
+    stats/...                      time series (counts, per-stage ms, rate, error)
+
+Two timelines: ``frame`` (the frame pair's index) and ``capture_time`` (seconds
+since the first logged frame, from the pair's capture timestamps).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .camera import Rig
+from .config import Config, Target
+from .console import info
+from .errors import StereotrackError
+from .results import FrameResult
+
+APPLICATION_ID = "stereotrack"
+
+# Cluster colours (matplotlib's tab10, RGB): particles, objects and their 2D windows share them.
+PALETTE = np.array(
+    [
+        [31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],
+        [140, 86, 75], [227, 119, 194], [188, 189, 34], [23, 190, 207], [127, 127, 127],
+    ],
+    dtype=np.uint8,
+)
+UNCLUSTERED = np.array([150, 150, 150], dtype=np.uint8)
+SEQUENTIAL, ABDUCTIVE = 0, 1  # particle class ids
+
+
+@dataclass(frozen=True)
+class VizSettings:
+    """What the viewer logs, and how much (cost control)."""
+
+    every: int = 1  # log every N-th frame (trails still follow every frame)
+    max_particles: int = 1000  # per target and frame; more are subsampled at random (seeded)
+    images: bool = True  # log the camera images
+    jpeg_quality: int = 75  # JPEG-compress images at this quality (1..100); 0 logs raw BGR pixels
+    masks: bool = False  # log the colour masks as a layer over each image
+    rays: bool = False  # log the abduction's viewing rays
+    trail_seconds: float = 2.0  # length of each track's fading trail
+    seed: int = 0  # for the particle subsample
+
+
+@dataclass(frozen=True)
+class VizOutputs:
+    """Where the log goes: any combination of a file, a local viewer, a remote viewer, a web server."""
+
+    rrd: Path | None = None  # save to this .rrd file
+    spawn: bool = False  # start a native viewer on this machine
+    connect: str | None = None  # stream to a viewer's gRPC server, rerun+http://HOST:PORT/proxy
+    serve: bool = False  # host gRPC + web viewer (a child `rerun --serve-web` process)
+    bind: str = "127.0.0.1"  # address the served viewer listens on
+    grpc_port: int = 9876
+    web_port: int = 9090
+    hold: bool = True  # with serve: keep serving after a finished run until Ctrl-C
+
+    @property
+    def any(self) -> bool:
+        return bool(self.rrd or self.spawn or self.connect or self.serve)
+
+
+# --------------------------------------------------------------------------- colours
+
+
+def target_colour(target: Target) -> np.ndarray:
+    """A vivid RGB display colour in the middle of the target's hue range."""
+    import cv2
+
+    lo, hi = target.hsv_min[0], target.hsv_max[0]
+    hue = ((lo + hi + 180) / 2) % 180 if target.wraps else (lo + hi) / 2
+    hsv = np.array([[[round(hue), 220, 255]]], dtype=np.uint8)
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0]
+
+
+def with_alpha(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """RGB colours (N x 3 or 3) with per-item alpha (N, 0..1) -> N x 4 uint8."""
+    alpha = np.asarray(alpha, dtype=float)
+    rgb = np.broadcast_to(np.asarray(rgb, dtype=np.uint8), (len(alpha), 3))
+    return np.hstack([rgb, np.clip(255 * alpha, 0, 255).astype(np.uint8)[:, None]])
+
+
+# --------------------------------------------------------------------------- blueprint
+
+
+def default_blueprint(camera_names: list[str], with_truth: bool = False) -> Any:
+    """3D view with the cameras, one 2D view per camera, and the time-series panels."""
+    import rerun.blueprint as rrb
+
+    cams = [rrb.Spatial2DView(origin=f"world/cameras/{n}", name=n) for n in camera_names]
+    series = [
+        rrb.TimeSeriesView(origin="stats/counts", name="particles per track, objects, tracks"),
+        rrb.TimeSeriesView(origin="stats/timing_ms", name="per-stage ms"),
+        rrb.TimeSeriesView(origin="stats/rate", name="frames/s and latency ms"),
+    ]
+    if with_truth:
+        series.append(rrb.TimeSeriesView(origin="stats/error_mm", name="3D error vs truth, mm"))
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                rrb.Spatial3DView(origin="world", name="3D: cameras, particles, tracks"),
+                rrb.Horizontal(*cams),
+                row_shares=[3, 2],
+            ),
+            rrb.Vertical(*series),
+            column_shares=[3, 1],
+        ),
+        collapse_panels=True,
+    )
+
+
+# --------------------------------------------------------------------------- viewer processes
+
+
+def rerun_executable() -> str:
+    """The rerun CLI shipped with rerun-sdk (the ``rerun_cli`` package), else the one on PATH."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("rerun_cli")
+    if spec and spec.submodule_search_locations:
+        exe = Path(list(spec.submodule_search_locations)[0]) / "rerun"
+        if exe.is_file():
+            return str(exe)
+    found = shutil.which("rerun") or shutil.which("rerun", path=str(Path(sys.executable).parent))
+    if not found:
+        raise StereotrackError("the rerun viewer executable is missing; reinstall with 'pip install rerun-sdk'")
+    return found
+
+
+def _wait_for_port(host: str, port: int, proc: subprocess.Popen, seconds: float) -> bool:
+    host = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            return False
+        try:
+            with socket.create_connection((host, port), timeout=0.2):
+                return True
+        except OSError:
+            time.sleep(0.1)
+    return False
+
+
+def _start_viewer_process(args: list[str], host: str, port: int, what: str, detach: bool) -> subprocess.Popen:
+    """Start the rerun CLI in its own session (a terminal's Ctrl-C goes to us, not to it)."""
+    proc = subprocess.Popen(
+        [rerun_executable(), *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE if not detach else subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    if not _wait_for_port(host, port, proc, 15.0):
+        err = ""
+        if proc.poll() is None:
+            proc.terminate()
+        elif proc.stderr is not None:
+            lines = [ln for ln in proc.stderr.read().decode(errors="replace").splitlines() if ln.strip()]
+            err = f" ({lines[-1].strip()[:200]})" if lines else ""
+        raise StereotrackError(f"could not start {what} on port {port}{err}; is the port taken? use --rrd FILE and open it later with 'rerun FILE'")
+    return proc
+
+
+def normalise_connect_url(url: str) -> str:
+    """Accept rerun+http://HOST:PORT/proxy as is; HOST:PORT or PORT are expanded to it."""
+    url = url.strip()
+    if "://" not in url:
+        host, _, port = url.rpartition(":")
+        if not port.isdigit():
+            raise StereotrackError(f"--connect {url!r}: expected rerun+http://HOST:PORT/proxy, HOST:PORT or PORT")
+        return f"rerun+http://{host or '127.0.0.1'}:{port}/proxy"
+    scheme = url.split("://", 1)[0]
+    if scheme not in ("rerun", "rerun+http", "rerun+https") or not url.rstrip("/").endswith("/proxy"):
+        raise StereotrackError(f"--connect {url!r}: expected rerun+http://HOST:PORT/proxy (scheme rerun, rerun+http or rerun+https, path /proxy)")
+    return url
+
+
+# --------------------------------------------------------------------------- the sink
+
+
+class RerunSink:
+    """Logs every FrameResult to rerun (a Sink, see results.py).
+
+    >>> sink = RerunSink(rig, config, VizOutputs(rrd=Path("run.rrd")))
+    >>> sink.write(result); ...; sink.close()
+    """
+
+    def __init__(
+        self,
+        rig: Rig,
+        config: Config,
+        outputs: VizOutputs,
+        settings: VizSettings = VizSettings(),
+        truth: np.ndarray | None = None,
+        recording_name: str | None = None,
+    ):
+        import rerun as rr
+
+        self.rr = rr
+        self.rig = rig
+        self.config = config
+        self.settings = settings
+        self.outputs = outputs
+        self._rng = np.random.default_rng(settings.seed)
+        self._targets = {t.name: t for t in config.targets}
+        self._colours = {t.name: target_colour(t) for t in config.targets}
+        self._truth = self._index_truth(truth)
+        self._children: list[subprocess.Popen] = []
+        self._n_written = 0
+        self._t0: float | None = None
+        self._last_wall: float | None = None
+        self._rates: deque[float] = deque(maxlen=30)  # wall-clock time between written frames, for frames/s
+        self._trails: dict[int, deque[tuple[float, np.ndarray]]] = {}
+        self._closed = False
+        self.web_url: str | None = None
+
+        self.rec = rr.RecordingStream(APPLICATION_ID)
+        if recording_name:
+            self.rec.send_recording_name(recording_name)
+        self.blueprint = default_blueprint(rig.names, with_truth=self._truth is not None)
+        self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
+        self._log_static()
+
+    # ----------------------------------------------------------------- setup
+
+    def _open_sinks(self, out: VizOutputs) -> list[Any]:
+        rr = self.rr
+        sinks: list[Any] = []
+        if out.rrd is not None:
+            path = Path(out.rrd)
+            if path.is_dir():
+                raise StereotrackError(f"--rrd {path}: is a folder; give a file name such as {path / 'run.rrd'}")
+            path.parent.mkdir(parents=True, exist_ok=True)
+            sinks.append(rr.FileSink(str(path)))
+        if out.connect:
+            sinks.append(rr.GrpcSink(normalise_connect_url(out.connect)))
+        if out.spawn:
+            port = _free_port()
+            self._children.append(
+                _start_viewer_process(["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True)
+            )
+            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{port}/proxy"))
+        if out.serve:
+            proc = _start_viewer_process(
+                ["--serve-web", "--bind", out.bind, "--port", str(out.grpc_port), "--web-viewer-port", str(out.web_port)],
+                out.bind,
+                out.grpc_port,
+                "the web viewer server",
+                False,
+            )
+            self._children.append(proc)
+            _wait_for_port(out.bind, out.web_port, proc, 10.0)
+            host = "127.0.0.1" if out.bind in ("0.0.0.0", "::") else out.bind
+            sinks.append(rr.GrpcSink(f"rerun+http://{host}:{out.grpc_port}/proxy"))
+            from urllib.parse import quote
+
+            self.web_url = f"http://{host}:{out.web_port}/?url={quote(f'rerun+http://{host}:{out.grpc_port}/proxy', safe='')}"
+            info(f"web viewer: {self.web_url}")
+        return sinks
+
+    def _log_static(self) -> None:
+        rr, rec = self.rr, self.rec
+        if self.rig.world in self.rig.names:  # the world is a camera's frame: OpenCV's x right, y down, z forward
+            rec.log("world", rr.ViewCoordinates.RDF, static=True)
+        for cam in self.rig.cameras:
+            path = f"world/cameras/{cam.name}"
+            # x_cam = R x_world + t: the transform maps the parent (world) into the camera's frame.
+            rec.log(path, rr.Transform3D(translation=cam.t, mat3x3=cam.R, relation=rr.TransformRelation.ChildFromParent), static=True)
+            rec.log(
+                path,
+                rr.Pinhole(image_from_camera=cam.K, resolution=[cam.width, cam.height], camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.25),
+                static=True,
+            )
+            masks = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0, 0))]
+            masks += [rr.AnnotationInfo(id=i + 1, label=t.name, color=(*self._colours[t.name], 140)) for i, t in enumerate(self.config.targets)]
+            rec.log(f"{path}/mask", rr.AnnotationContext(masks), static=True)
+        rec.log(
+            "world/particles",
+            rr.AnnotationContext([rr.AnnotationInfo(id=SEQUENTIAL, label="sequential"), rr.AnnotationInfo(id=ABDUCTIVE, label="abductive")]),
+            static=True,
+        )
+
+    @staticmethod
+    def _index_truth(truth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """Truth rows sorted by frame, plus the frame column for slicing one frame at a time."""
+        if truth is None or len(truth) == 0:
+            return None
+        truth = np.asarray(truth, dtype=float)
+        truth = truth[np.argsort(truth[:, 0], kind="stable")]
+        return truth, truth[:, 0]
+
+    # ----------------------------------------------------------------- per frame
+
+    def write(self, result: FrameResult) -> None:
+        frame = result.frame
+        if self._t0 is None:
+            self._t0 = frame.time
+        now = frame.time - self._t0
+        self._follow_trails(result, now)
+        self._n_written += 1
+        if (self._n_written - 1) % self.settings.every:
+            return
+        wall = time.perf_counter()
+        if self._last_wall is not None:
+            self._rates.append((wall - self._last_wall) / self.settings.every)
+        self._last_wall = wall
+
+        rec = self.rec
+        rec.set_time("frame", sequence=frame.index)
+        rec.set_time("capture_time", duration=now)
+        offsets = self._object_offsets(result)
+        self._log_cameras(result, offsets)
+        self._log_particles(result, offsets)
+        self._log_objects(result, offsets)
+        self._log_tracks(result, now)
+        if self.settings.rays:
+            self._log_rays(result)
+        self._log_stats(result)
+        if self._truth is not None:
+            self._log_truth(result)
+
+    def _object_offsets(self, result: FrameResult) -> dict[str, int]:
+        """Index of each target's first object in result.objects: particle labels are per target."""
+        offsets: dict[str, int] = {}
+        for i, obj in enumerate(result.objects):
+            offsets.setdefault(obj.target, i)
+        return offsets
+
+    def _target(self, name: str) -> Target:
+        return self._targets.get(name) or Target(name, (0, 0, 0), (179, 255, 255))
+
+    def _colour(self, name: str) -> np.ndarray:
+        return self._colours.get(name, UNCLUSTERED)
+
+    def _log_cameras(self, result: FrameResult, offsets: dict[str, int]) -> None:
+        import cv2
+
+        rr, rec, s = self.rr, self.rec, self.settings
+        positions = np.array([o.position for o in result.objects]).reshape(-1, 3)
+        radii = np.array([self._target(o.target).radius for o in result.objects])
+        obj_colours = PALETTE[np.arange(len(positions)) % len(PALETTE)]
+        tracks = result.confirmed
+        track_pos = np.array([t.position for t in tracks]).reshape(-1, 3)
+        track_colours = np.array([self._colour(t.target) for t in tracks], dtype=np.uint8).reshape(-1, 3)
+        half_window = self.config.tracker.window / 2
+        for ci, cam in enumerate(self.rig.cameras):
+            path = f"world/cameras/{cam.name}"
+            if s.images and ci < len(result.frame.images):
+                img = result.frame.images[ci]
+                if s.jpeg_quality > 0:
+                    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, int(s.jpeg_quality)])
+                    rec.log(f"{path}/image", rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg"))
+                else:
+                    rec.log(f"{path}/image", rr.Image(img, color_model="BGR"))
+            if s.masks:
+                self._log_mask(result, cam.name, path)
+            # Objects: centre and the ball's expected image footprint (at least the colour window W).
+            uv, vis = self._visible(cam, positions)
+            depth = cam.depth(positions)
+            half = np.maximum(cam.K[0, 0] * radii / np.where(depth > 0, depth, np.inf), half_window)
+            rec.log(f"{path}/objects", rr.Points2D(uv[vis], colors=obj_colours[vis], radii=2.0))
+            rec.log(
+                f"{path}/windows",
+                rr.Boxes2D(centers=uv[vis], half_sizes=np.repeat(half[vis, None], 2, axis=1), colors=obj_colours[vis]),
+            )
+            uv, vis = self._visible(cam, track_pos)
+            labels = [f"#{t.track_id}" for t, v in zip(tracks, vis) if v]
+            rec.log(f"{path}/tracks", rr.Points2D(uv[vis], colors=track_colours[vis], radii=4.0, labels=labels))
+
+    @staticmethod
+    def _visible(cam, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        uv, front = cam.project(points)
+        inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
+        return np.nan_to_num(uv), inside
+
+    def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
+        label = None
+        for i, target in enumerate(self.config.targets):
+            mask = result.masks.get((target.name, cam_name))
+            if mask is None:
+                continue
+            if label is None:
+                label = np.zeros(mask.shape[:2], dtype=np.uint8)
+            label[mask > 0] = i + 1
+        if label is not None:
+            self.rec.log(f"{path}/mask", self.rr.SegmentationImage(label, opacity=0.5))
+
+    def _log_particles(self, result: FrameResult, offsets: dict[str, int]) -> None:
+        rr, rec = self.rr, self.rec
+        limit = self.settings.max_particles
+        for ps in result.particles:
+            n = len(ps.positions)
+            keep = np.sort(self._rng.choice(n, size=limit, replace=False)) if n > limit else slice(None)
+            pos = ps.positions[keep]
+            labels = ps.labels[keep]
+            abductive = ps.abductive[keep]
+            glob = np.where(labels >= 0, labels + offsets.get(ps.target, 0), -1)
+            colours = np.where((glob >= 0)[:, None], PALETTE[glob % len(PALETTE)], UNCLUSTERED)
+            # Abductive particles: same cluster colour, lighter and smaller.
+            colours = np.where(abductive[:, None], (colours.astype(np.uint16) + 255) // 2, colours).astype(np.uint8)
+            rec.log(
+                f"world/particles/{ps.target}",
+                rr.Points3D(
+                    pos,
+                    colors=colours,
+                    radii=np.where(abductive, 0.003, 0.005),
+                    class_ids=np.where(abductive, ABDUCTIVE, SEQUENTIAL),
+                ),
+            )
+
+    def _log_objects(self, result: FrameResult, offsets: dict[str, int]) -> None:
+        positions = np.array([o.position for o in result.objects]).reshape(-1, 3)
+        labels = [f"{o.target} {o.n_particles}p" for o in result.objects]
+        self.rec.log(
+            "world/objects",
+            self.rr.Points3D(positions, colors=PALETTE[np.arange(len(positions)) % len(PALETTE)], radii=0.01, labels=labels, show_labels=False),
+        )
+
+    def _follow_trails(self, result: FrameResult, now: float) -> None:
+        live = set()
+        for t in result.tracks:
+            live.add(t.track_id)
+            self._trails.setdefault(t.track_id, deque()).append((now, np.asarray(t.position, dtype=float)))
+        for tid in list(self._trails):
+            trail = self._trails[tid]
+            if tid not in live:
+                del self._trails[tid]
+                continue
+            while trail and now - trail[0][0] > self.settings.trail_seconds:
+                trail.popleft()
+
+    def _log_tracks(self, result: FrameResult, now: float) -> None:
+        rr, rec = self.rr, self.rec
+        tracks = result.confirmed
+        centres = np.array([t.position for t in tracks]).reshape(-1, 3)
+        radii = np.array([self._target(t.target).radius for t in tracks])
+        colours = np.array([self._colour(t.target) for t in tracks], dtype=np.uint8).reshape(-1, 3)
+        rec.log(
+            "world/tracks",
+            rr.Ellipsoids3D(
+                centers=centres,
+                half_sizes=np.repeat(radii[:, None], 3, axis=1),
+                colors=colours,
+                labels=[f"#{t.track_id} {t.target}" for t in tracks],
+                fill_mode=rr.components.FillMode.Solid,
+            ),
+        )
+        # 2-sigma covariance ellipsoids: one batched eigen-decomposition of the 3x3 matrices.
+        if tracks:
+            cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
+            evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
+            evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
+            quats = _quaternions_xyzw(evecs)
+            halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
+        else:
+            quats, halves = np.zeros((0, 4)), np.zeros((0, 3))
+        rec.log(
+            "world/tracks/covariance",
+            rr.Ellipsoids3D(centers=centres, half_sizes=halves, quaternions=quats, colors=colours, fill_mode=rr.components.FillMode.MajorWireframe),
+        )
+        # Fading trails: one two-point strip per step, alpha falling with age.
+        segments, seg_colours = [], []
+        for t, colour in zip(tracks, colours):
+            trail = self._trails.get(t.track_id)
+            if not trail or len(trail) < 2:
+                continue
+            times = np.array([p[0] for p in trail])
+            pts = np.array([p[1] for p in trail])
+            segments.append(np.stack([pts[:-1], pts[1:]], axis=1))
+            seg_colours.append(with_alpha(colour, 1.0 - (now - times[1:]) / max(self.settings.trail_seconds, 1e-9)))
+        strips = np.concatenate(segments) if segments else np.zeros((0, 2, 3))
+        seg_c = np.concatenate(seg_colours) if seg_colours else np.zeros((0, 4), np.uint8)
+        rec.log("world/tracks/trails", rr.LineStrips3D(strips, colors=seg_c, radii=0.004))
+
+    def _log_rays(self, result: FrameResult) -> None:
+        d_min, d_max = self.config.tracker.d_min, self.config.tracker.d_max
+        for rays in result.rays:
+            strips = np.stack([rays.origins + d_min * rays.directions, rays.origins + d_max * rays.directions], axis=1)
+            self.rec.log(
+                f"world/rays/{rays.target}/{rays.camera}",
+                self.rr.LineStrips3D(strips, colors=with_alpha(self._colour(rays.target), np.full(len(strips), 0.6)), radii=0.002),
+            )
+
+    def _log_stats(self, result: FrameResult) -> None:
+        rr, rec = self.rr, self.rec
+        for t in result.confirmed:
+            rec.log(f"stats/counts/particles/track_{t.track_id}", rr.Scalars(float(t.n_particles)))
+        for name in self._targets:
+            rec.log(f"stats/counts/objects/{name}", rr.Scalars(float(sum(o.target == name for o in result.objects))))
+        rec.log("stats/counts/confirmed_tracks", rr.Scalars(float(len(result.confirmed))))
+        for stage, ms in result.timings_ms.items():
+            rec.log(f"stats/timing_ms/{stage}", rr.Scalars(float(ms)))
+        if self._rates:
+            rec.log("stats/rate/frames_per_s", rr.Scalars(len(self._rates) / sum(self._rates)))
+        if result.latency_s is not None:
+            rec.log("stats/rate/latency_ms", rr.Scalars(1000.0 * result.latency_s))
+
+    def _log_truth(self, result: FrameResult) -> None:
+        truth, frames = self._truth
+        lo, hi = np.searchsorted(frames, [result.frame.index, result.frame.index + 1])
+        rows = truth[lo:hi]
+        self.rec.log(
+            "world/truth",
+            self.rr.Points3D(rows[:, 2:5], colors=[255, 255, 255], radii=0.008, labels=[f"truth {int(o)}" for o in rows[:, 1]], show_labels=False),
+        )
+        tracks = result.confirmed
+        if len(rows) and tracks:
+            est = np.array([t.position for t in tracks])
+            dist = np.linalg.norm(est[:, None, :] - rows[None, :, 2:5], axis=2).min(axis=1)
+            self.rec.log("stats/error_mm/mean", self.rr.Scalars(1000.0 * float(dist.mean())))
+            self.rec.log("stats/error_mm/max", self.rr.Scalars(1000.0 * float(dist.max())))
+
+    # ----------------------------------------------------------------- end
+
+    def close(self) -> None:
+        """Flush and finish the file (an .rrd with its footer), also after Ctrl-C; stop child viewers."""
+        if self._closed:
+            return
+        self._closed = True
+        interrupted = sys.exc_info()[0] is not None
+        try:
+            self.rec.flush()
+            if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:
+                info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
+                try:
+                    while all(p.poll() is None for p in self._children if p.args and "--serve-web" in p.args):
+                        time.sleep(0.5)
+                except KeyboardInterrupt:
+                    pass
+        finally:
+            self.rec.disconnect()
+            for proc in self._children:
+                if "--serve-web" in proc.args and proc.poll() is None:
+                    proc.terminate()
+                    try:
+                        proc.wait(5)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+
+    def __enter__(self) -> RerunSink:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _quaternions_xyzw(R: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N x 3 x 3) -> unit quaternions (N x 4, x y z w), vectorised."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(R).as_quat() if len(R) else np.zeros((0, 4))
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+# --------------------------------------------------------------------------- command-line flags
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _quality(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number 0..100, got {text!r}") from None
+    if not 0 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be 0 (raw images) or 1..100, got {value}")
+    return value
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not 0 <= value <= 600:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 600 seconds, got {value}")
+    return value
+
+
+def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
+    """The viewer flags shared by `track`, `live` and `demo`."""
+    g = parser.add_argument_group("rerun viewer (any of --rrd, --spawn, --connect, --serve turns it on)")
+    g.add_argument("--rrd", metavar="FILE", type=Path, help="save the viewer log to FILE.rrd; open it later with 'rerun FILE.rrd'")
+    g.add_argument("--spawn", action="store_true", help="start a rerun viewer window on this machine")
+    g.add_argument("--connect", metavar="URL", help="stream to a rerun viewer elsewhere: rerun+http://HOST:9876/proxy (or HOST:PORT)")
+    g.add_argument("--serve", action="store_true", help="serve gRPC + a web viewer for a browser; keeps serving after a finished run until Ctrl-C")
+    g.add_argument("--bind", metavar="ADDR", default="127.0.0.1", help="address --serve listens on (default 127.0.0.1; 0.0.0.0 for every interface)")
+    g.add_argument("--serve-port", metavar="PORT", type=_positive_int, default=9876, help="gRPC port for --serve (default 9876)")
+    g.add_argument("--web-port", metavar="PORT", type=_positive_int, default=9090, help="web viewer port for --serve (default 9090)")
+    g.add_argument("--viz-every", metavar="N", type=_positive_int, default=VizSettings.every, help="log every N-th frame (default 1)")
+    g.add_argument(
+        "--viz-max-particles", metavar="K", type=_positive_int, default=VizSettings.max_particles,
+        help=f"log at most K particles per target and frame, a random subsample (default {VizSettings.max_particles})",
+    )
+    g.add_argument(
+        "--viz-jpeg-quality", metavar="Q", type=_quality, default=VizSettings.jpeg_quality,
+        help=f"JPEG quality of logged images, 1..100; 0 logs raw pixels (default {VizSettings.jpeg_quality})",
+    )
+    g.add_argument("--no-images", action="store_true", help="do not log camera images")
+    g.add_argument("--viz-masks", action="store_true", help="log the colour masks as a layer over each image")
+    g.add_argument("--viz-rays", action="store_true", help="log the abduction's viewing rays")
+    g.add_argument("--viz-trail", metavar="SECONDS", type=_seconds, default=VizSettings.trail_seconds, help="length of the tracks' fading trails (default 2)")
+
+
+def viz_settings_from_args(args: argparse.Namespace, seed: int = 0) -> VizSettings:
+    return VizSettings(
+        every=args.viz_every,
+        max_particles=args.viz_max_particles,
+        images=not args.no_images,
+        jpeg_quality=args.viz_jpeg_quality,
+        masks=args.viz_masks,
+        rays=args.viz_rays,
+        trail_seconds=args.viz_trail,
+        seed=seed,
+    )
+
+
+def make_viz_sink(
+    args: argparse.Namespace,
+    rig: Rig,
+    config: Config,
+    truth: np.ndarray | None = None,
+    default_rrd: str | Path | None = None,
+    recording_name: str | None = None,
+) -> RerunSink | None:
+    """The RerunSink the flags ask for, or None when no viewer output is given (and no default_rrd)."""
+    outputs = VizOutputs(
+        rrd=args.rrd if args.rrd is not None else (Path(default_rrd) if default_rrd else None),
+        spawn=args.spawn,
+        connect=args.connect,
+        serve=args.serve,
+        bind=args.bind,
+        grpc_port=args.serve_port,
+        web_port=args.web_port,
+    )
+    if not outputs.any:
+        return None
+    if outputs.connect:
+        normalise_connect_url(outputs.connect)  # a bad URL fails before any work starts
+    return RerunSink(rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed), truth=truth, recording_name=recording_name)
