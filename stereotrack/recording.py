@@ -61,6 +61,7 @@ class RecordingWriter:
         targets: dict[str, Any] | None = None,
         extra_meta: dict[str, Any] | None = None,
         overwrite: bool = False,
+        truth_fields: Sequence[str] = (),
     ):
         if codec not in CODECS:
             raise StereotrackError(f"unknown codec {codec!r}: choose one of {', '.join(CODECS)}")
@@ -104,6 +105,7 @@ class RecordingWriter:
         self._frames_file.write("frame," + ",".join(f"t_{n}" for n in self.camera_names) + "\n")
         self._frames_file.flush()
         self._truth_file = None
+        self._truth_fields = tuple(truth_fields)  # optional extra truth.csv columns after x,y,z
         self.count = 0
 
     def write(self, images: Sequence[np.ndarray], timestamps: Sequence[float]) -> int:
@@ -121,13 +123,18 @@ class RecordingWriter:
         self.count += 1
         return index
 
-    def write_truth(self, frame: int, rows: Sequence[tuple[int, float, float, float]]) -> None:
-        """Append ground-truth rows (object_id, x, y, z) for one frame."""
+    def write_truth(self, frame: int, rows: Sequence[tuple]) -> None:
+        """Append ground-truth rows (object_id, x, y, z, *truth_fields) for one frame."""
         if self._truth_file is None:
             self._truth_file = open(self.folder / "truth.csv", "w", newline="")
-            self._truth_file.write("frame,object_id,x,y,z\n")
-        for oid, x, y, z in rows:
-            self._truth_file.write(f"{frame},{int(oid)},{x:.6f},{y:.6f},{z:.6f}\n")
+            self._truth_file.write(",".join(("frame", "object_id", "x", "y", "z") + self._truth_fields) + "\n")
+        n = 4 + len(self._truth_fields)
+        for row in rows:
+            if len(row) != n:
+                raise ValueError(f"truth rows need {n} values (object_id, x, y, z{''.join(', ' + f for f in self._truth_fields)})")
+            oid, x, y, z = row[:4]
+            extra = "".join(f",{v}" for v in row[4:])
+            self._truth_file.write(f"{frame},{int(oid)},{x:.6f},{y:.6f},{z:.6f}{extra}\n")
         self._truth_file.flush()
 
     def close(self) -> None:

@@ -1,0 +1,122 @@
+"""Ball trajectories for synthetic scenes: where each ball is at time t (world frame, z up).
+
+Every trajectory maps an array of times (seconds) to T x 3 positions in
+metres; NaN rows mean "not in the scene at that time". All are closed-form
+(or tabulated, for motion capture), so any frame can be rendered on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+G = 9.81  # m/s^2, along -z
+
+
+@dataclass(frozen=True)
+class Static:
+    """A ball that does not move."""
+
+    position: tuple[float, float, float]
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        return np.broadcast_to(np.asarray(self.position, float), (len(t), 3)).copy()
+
+
+@dataclass(frozen=True)
+class Pendulum:
+    """A ball on a string of ``length`` hanging from ``pivot``, swinging in a vertical plane.
+
+    The swing plane holds the vertical and the horizontal direction at
+    ``azimuth`` degrees from +x towards +y (0 = sideways across the image,
+    90 = towards/away from the cameras). The period follows from the
+    length: 2 pi sqrt(length / g).
+    """
+
+    pivot: tuple[float, float, float]
+    length: float
+    amplitude: float = 20.0  # degrees
+    azimuth: float = 0.0  # degrees
+    phase: float = 0.0  # degrees
+
+    @property
+    def period(self) -> float:
+        return float(2 * np.pi * np.sqrt(self.length / G))
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, float)
+        theta = np.radians(self.amplitude) * np.cos(2 * np.pi * t / self.period + np.radians(self.phase))
+        az = np.radians(self.azimuth)
+        swing = np.array([np.cos(az), np.sin(az), 0.0])
+        out = np.asarray(self.pivot, float) + self.length * (np.sin(theta)[:, None] * swing)
+        out[:, 2] -= self.length * np.cos(theta)
+        return out
+
+
+@dataclass(frozen=True)
+class Line:
+    """Straight back and forth between ``start`` and ``end`` at constant speed (one way takes ``period`` / 2)."""
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    period: float = 4.0  # seconds for there and back
+    phase: float = 0.0  # fraction of the period already travelled at t = 0
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        s = np.mod(np.asarray(t, float) / self.period + self.phase, 1.0)
+        w = 1.0 - np.abs(2.0 * s - 1.0)  # 0 -> 1 -> 0 triangle wave
+        a, b = np.asarray(self.start, float), np.asarray(self.end, float)
+        return a + w[:, None] * (b - a)
+
+
+@dataclass(frozen=True)
+class Ballistic:
+    """Repeated throws under gravity between two hands: ``start`` -> ``end`` -> ``start`` ...
+
+    Each flight lasts ``flight`` seconds and lands at the height it left,
+    so the apex is g flight^2 / 8 above the hands; ``dwell`` seconds in the
+    hand (standing still) follow each catch.
+    """
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    flight: float = 0.8
+    dwell: float = 0.2
+    phase: float = 0.0  # seconds already elapsed at t = 0
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        cycle = self.flight + self.dwell
+        tt = np.asarray(t, float) + self.phase
+        k = np.floor(tt / cycle).astype(int)
+        tau = np.minimum(tt - k * cycle, self.flight)  # time in the air (held at the catch while dwelling)
+        a, b = np.asarray(self.start, float), np.asarray(self.end, float)
+        odd = (k % 2 == 1)[:, None]
+        frm, to = np.where(odd, b, a), np.where(odd, a, b)
+        s = (tau / self.flight)[:, None]
+        out = frm + s * (to - frm)
+        out[:, 2] += 0.5 * G * tau * (self.flight - tau)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Samples:
+    """A tabulated trajectory (e.g. motion capture): linear interpolation, NaN where unknown."""
+
+    times: np.ndarray  # F seconds, increasing
+    points: np.ndarray  # F x 3 metres, NaN = unknown
+    loop: bool = False  # replay from the start after the last sample
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, float)
+        if self.loop:
+            t = np.mod(t, self.times[-1])
+        j = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+        w = ((t - self.times[j]) / (self.times[j + 1] - self.times[j]))[:, None]
+        a, b = self.points[j], self.points[j + 1]
+        out = np.where(w < 1e-9, a, (1 - w) * a + w * b)
+        out[(t < self.times[0]) | (t > self.times[-1])] = np.nan
+        return out
+
+
+TRAJECTORIES = {"static": Static, "pendulum": Pendulum, "line": Line, "ballistic": Ballistic}

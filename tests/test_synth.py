@@ -1,0 +1,239 @@
+import cv2
+import numpy as np
+import pytest
+
+from stereotrack.cli import main
+from stereotrack.errors import StereotrackError
+from stereotrack.recording import open_recording, read_truth
+from stereotrack.scenes import PRESETS, load_scene_yaml, make_preset
+from stereotrack.synth import BallSpec, Occluder, RigSpec, SceneRenderer, SceneSpec, ensure_demo_recording, render_scene
+from stereotrack.trajectories import Static
+
+
+def hsv_mask(image: np.ndarray, target) -> np.ndarray:
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+    lo, hi = np.array(target.hsv_min), np.array(target.hsv_max)
+    if target.wraps:
+        a = cv2.inRange(hsv, lo, np.array([179, hi[1], hi[2]]))
+        b = cv2.inRange(hsv, np.array([0, lo[1], lo[2]]), hi)
+        return (a | b) > 0
+    return cv2.inRange(hsv, lo, hi) > 0
+
+
+def one_ball_scene(position, dist=(), noise=0.0, occluders=(), width=640, height=480) -> SceneSpec:
+    rig = RigSpec(width=width, height=height, dist=tuple(dist))
+    return SceneSpec("t", (BallSpec(Static(tuple(position))),), rig, n_frames=1, noise=noise, occluders=tuple(occluders))
+
+
+@pytest.mark.parametrize("dist", [(), (-0.25, 0.08, 0.001, -0.0005, 0.0)])
+def test_mask_centroid_within_half_pixel_of_projected_centre(dist):
+    # A ball 1.5 m ahead, slightly off the aim point so the centre is not on a pixel grid point.
+    centre = np.array([0.013, 1.5, -0.021])
+    spec = one_ball_scene(centre, dist=dist, noise=2.0)
+    renderer = SceneRenderer(spec)
+    images, truth = renderer.render(0)
+    target = spec.targets()[0]
+    for cam, img in zip(renderer.rig.cameras, images):
+        uv, front = cam.project(centre[None])
+        assert front[0]
+        mask = hsv_mask(img, target)
+        ys, xs = np.nonzero(mask)
+        radius_px = cam.K[0, 0] * 0.035 / cam.depth(centre[None])[0]
+        assert abs(len(xs) - np.pi * radius_px**2) < 0.1 * np.pi * radius_px**2  # the whole disc, nothing else
+        err = np.hypot(xs.mean() - uv[0, 0], ys.mean() - uv[0, 1])
+        assert err < 0.5, f"{cam.name}: centroid {err:.3f} px from the projected centre"
+    assert len(truth) == 1 and truth[0][4] == 2
+
+
+def test_distortion_moves_the_ball_where_the_camera_model_projects_it():
+    # Far from the axis strong barrel distortion shifts the ball by many pixels; the render must follow.
+    centre = np.array([0.45, 1.5, 0.25])
+    for dist in [(), (-0.3, 0.1, 0.0, 0.0, 0.0)]:
+        spec = one_ball_scene(centre, dist=dist)
+        renderer = SceneRenderer(spec)
+        images, _ = renderer.render(0)
+        cam = renderer.rig.cameras[0]
+        uv, _ = cam.project(centre[None])
+        ys, xs = np.nonzero(hsv_mask(images[0], spec.targets()[0]))
+        assert np.hypot(xs.mean() - uv[0, 0], ys.mean() - uv[0, 1]) < 1.0
+    undistorted = SceneRenderer(one_ball_scene(centre)).rig.cameras[0].project(centre[None])[0]
+    assert np.linalg.norm(uv - undistorted) > 4  # the distortion case really moved it (5.8 px)
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_every_preset_renders_with_truth(name):
+    spec = make_preset(name, width=320, height=240, n_frames=2)
+    renderer = SceneRenderer(spec)
+    assert renderer.rig.cameras[0].image_size == (320, 240)
+    images, truth = renderer.render(1)
+    assert len(images) == 2 and all(img.shape == (240, 320, 3) and img.dtype == np.uint8 for img in images)
+    assert truth, f"{name}: no ball in view at frame 1"
+    for oid, x, y, z, visible in truth:
+        assert 0 <= oid < len(spec.balls) and 0 <= visible <= 2
+        for cam in renderer.rig.cameras:  # truth rows are balls whose centre every camera sees
+            uv, front = cam.project(np.array([[x, y, z]]))
+            assert front[0] and 0 <= uv[0, 0] <= 319 and 0 <= uv[0, 1] <= 239
+    assert spec.targets(), f"{name}: no targets"
+
+
+def test_presets_keep_every_ball_in_view_the_whole_time():
+    for name in ("pendulum4", "crossing", "throw1", "juggle5"):
+        spec = make_preset(name)
+        renderer = SceneRenderer(spec)
+        in_view = 0
+        frames = range(0, spec.n_frames, 3)
+        for f in frames:
+            pos = renderer.ball_positions(renderer.time(f))
+            ok = np.isfinite(pos[:, 0])
+            for cam in renderer.rig.cameras:
+                uv, front = cam.project(np.nan_to_num(pos))
+                ok &= front & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+            in_view += ok.sum()
+        present = sum(np.isfinite(renderer.ball_positions(renderer.time(f))[:, 0]).sum() for f in frames)
+        assert in_view == present, f"{name}: {present - in_view} ball-frames out of view"
+        if name != "juggle5":  # the capture loses balls now and then; synthetic balls are always there
+            assert present == len(spec.balls) * len(frames)
+
+
+def test_same_seed_same_images_other_seed_other_images():
+    a = SceneRenderer(make_preset("clutter", width=320, height=240, seed=4)).render(5)[0]
+    b = SceneRenderer(make_preset("clutter", width=320, height=240, seed=4)).render(5)[0]
+    c = SceneRenderer(make_preset("clutter", width=320, height=240, seed=5)).render(5)[0]
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert not np.array_equal(a[0], c[0])
+    # Frames render on their own: the same frame out of order comes out the same.
+    r = SceneRenderer(make_preset("clutter", width=320, height=240, seed=4))
+    r.render(9)
+    assert all(np.array_equal(x, y) for x, y in zip(a, r.render(5)[0]))
+
+
+def test_occluder_hides_the_ball_in_one_view():
+    centre = (0.0, 1.5, 0.0)
+    # A panel between cam0 (x = -0.15) and the ball, clear of cam1's line of sight.
+    panel = Occluder(centre=(-0.1, 0.5, 0.0), size=(0.08, 0.01, 0.1))
+    spec = one_ball_scene(centre, occluders=[panel])
+    renderer = SceneRenderer(spec)
+    images, truth = renderer.render(0)
+    target = spec.targets()[0]
+    seen = [hsv_mask(img, target).sum() for img in images]
+    free = [hsv_mask(img, target).sum() for img in SceneRenderer(one_ball_scene(centre)).render(0)[0]]
+    assert seen[0] == 0 and free[0] > 500
+    assert seen[1] == free[1]
+    assert truth == [(0, 0.0, 1.5, 0.0, 1)]
+    labels = renderer.labels(0)
+    assert (labels[0] == 0).sum() == 0 and (labels[0] == -2).sum() > 1000 and (labels[1] == 0).sum() > 500
+
+
+def test_crossing_balls_hide_each_other_in_turn():
+    spec = make_preset("crossing", width=320, height=240)
+    renderer = SceneRenderer(spec)
+    visible_far = [dict((r[0], r[4]) for r in renderer.render(f)[1]).get(1) for f in range(30, 60)]
+    assert min(visible_far) < 2  # the far ball disappears behind the near one in at least one view
+    assert visible_far[0] == 2 and visible_far[-1] == 2
+
+
+@pytest.mark.parametrize("name", ["pendulum4", "static_depths", "juggle5", "clutter"])
+def test_target_range_covers_balls_and_little_background(name):
+    spec = make_preset(name, n_frames=3)
+    renderer = SceneRenderer(spec)
+    target = spec.targets()[0]
+    for f in (0, 2):
+        images, _ = renderer.render(f)
+        for img, labels in zip(images, renderer.labels(f)):
+            mask = hsv_mask(img, target)
+            ball = labels >= 0
+            core = cv2.erode(ball.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # edge pixels blend with the background
+            inside = mask[core].mean()
+            assert inside > 0.9, f"{name}: only {inside:.1%} of ball pixels in the HSV range"
+            background = mask[labels == -1].mean()
+            limit = 0.02 if name == "clutter" else 0.001  # clutter has similar-hue distractors on purpose
+            assert background < limit, f"{name}: {background:.2%} of background pixels in the HSV range"
+
+
+def test_static_depths_places_balls_at_the_given_depths():
+    spec = make_preset("static_depths", depths=[0.8, 1.6, 2.4, 3.0])
+    _, truth = SceneRenderer(spec).render(0)
+    assert [round(r[2], 6) for r in truth] == [0.8, 1.6, 2.4, 3.0]
+
+
+def test_appear_schedule():
+    spec = make_preset("appear5", interval=0.5, width=160, height=120)
+    renderer = SceneRenderer(spec)
+    counts = [len(renderer.render(f)[1]) for f in (0, 16, 31, 46, 61)]
+    assert counts == [1, 2, 3, 4, 5]
+    together = make_preset("appear5", all_at_once=True, width=160, height=120)
+    assert len(SceneRenderer(together).render(0)[1]) == 5
+
+
+def test_unknown_preset_and_setting_are_clear_errors():
+    with pytest.raises(StereotrackError, match="unknown scene preset 'pendulum5'.*pendulum4"):
+        make_preset("pendulum5")
+    with pytest.raises(StereotrackError, match="unknown setting 'depht'"):
+        make_preset("static_depths", depht=[1.0])
+
+
+def test_scene_yaml(tmp_path):
+    path = tmp_path / "scene.yaml"
+    path.write_text(
+        """
+name: two
+fps: 20
+n_frames: 4
+rig: {width: 160, height: 120, baseline: 0.2}
+balls:
+  - colour: orange
+    radius: 0.05
+    trajectory: {type: line, start: [-0.2, 1.5, 0], end: [0.2, 1.5, 0], period: 2}
+  - trajectory: {type: pendulum, pivot: [0, 1.8, 0.6], length: 0.6, amplitude: 20}
+    appear: 0.1
+"""
+    )
+    spec = load_scene_yaml(path)
+    assert spec.name == "two" and spec.fps == 20 and spec.rig.baseline == 0.2 and len(spec.balls) == 2
+    assert [t.name for t in spec.targets()] == ["orange", "pink"]
+    _, truth = SceneRenderer(spec).render(1)
+    assert [r[0] for r in truth] == [0]  # the pendulum comes in at 0.1 s
+    assert truth[0][1] == pytest.approx(-0.2 + 0.4 * (0.05 / 1.0))
+    preset = tmp_path / "p.yaml"
+    preset.write_text("preset: static_depths\nparams: {depths: [1.0]}\nseed: 3\n")
+    assert load_scene_yaml(preset).seed == 3
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("balls:\n  - trajectory: {type: spiral}\n")
+    with pytest.raises(StereotrackError, match="trajectory.type"):
+        load_scene_yaml(bad)
+
+
+def test_synth_command_writes_a_readable_recording(tmp_path, capsys):
+    out = tmp_path / "rec"
+    assert main(["synth", "pendulum4", "--out", str(out), "--frames", "3", "--width", "320", "--height", "240", "--no-progress"]) == 0
+    rec = open_recording(out)
+    assert rec.n_frames == 3 and rec.rig is not None and rec.rig.world == "custom"
+    assert rec.meta["up"] == [0.0, 0.0, 1.0] and rec.targets_path.is_file()
+    truth = read_truth(rec.truth_path)
+    assert truth.shape == (12, 5)
+    assert rec.truth_path.read_text().splitlines()[0] == "frame,object_id,x,y,z,visible"
+    renderer = SceneRenderer(make_preset("pendulum4", n_frames=3, width=320, height=240))
+    frames = list(rec.frames())
+    for pair in frames:
+        images, rows = renderer.render(pair.index)
+        assert all(np.array_equal(a, b) for a, b in zip(images, pair.images))  # FFV1 is lossless
+        assert np.allclose(truth[truth[:, 0] == pair.index, 2:5], [r[1:4] for r in rows], atol=1e-6)
+    assert main(["synth", "pendulum5", "--out", str(tmp_path / "x")]) == 2
+    assert "unknown scene preset" in capsys.readouterr().err
+    assert main(["synth", "--list"]) == 0
+    assert "juggle5" in capsys.readouterr().out
+
+
+def test_demo_recording_is_rendered_once_and_atomically(tmp_path, monkeypatch):
+    import stereotrack.scenes as scenes
+
+    real = scenes.make_preset
+    monkeypatch.setattr(scenes, "make_preset", lambda name, **kw: real(name, **dict(kw, n_frames=4, width=160, height=120)))
+    demo = ensure_demo_recording(tmp_path)
+    assert demo == tmp_path / "recordings" / "demo" and open_recording(demo).n_frames == 4
+    stamp = (demo / "cam0.mkv").stat().st_mtime_ns
+    assert ensure_demo_recording(tmp_path) == demo and (demo / "cam0.mkv").stat().st_mtime_ns == stamp
+    (demo / "frames.csv").write_text("frame,t_cam0,t_cam1\n0,0,0\n")  # a damaged demo is rendered again
+    ensure_demo_recording(tmp_path)
+    assert open_recording(demo).n_frames == 4
+    assert [p.name for p in (tmp_path / "recordings").iterdir()] == ["demo"]
