@@ -5,7 +5,7 @@ for: ``import stereotrack.viz`` costs nothing, ``RerunSink`` loads rerun.
 
 Entity layout (what the README's viewer section explains)::
 
-    world                          the rig's world frame (RDF when it is a camera's frame)
+    world                          the rig's world frame (RDF when it is a camera's frame, else z up)
     world/cameras/<cam>            Transform3D camera-from-world (OpenCV R, t) + Pinhole (K)
     world/cameras/<cam>/image      the camera image (JPEG or raw)
     world/cameras/<cam>/mask       colour masks, one class id per target (optional)
@@ -294,6 +294,8 @@ class RerunSink:
         rr, rec = self.rr, self.rec
         if self.rig.world in self.rig.names:  # the world is a camera's frame: OpenCV's x right, y down, z forward
             rec.log("world", rr.ViewCoordinates.RDF, static=True)
+        else:  # a custom world (synthetic scenes): z up
+            rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         for cam in self.rig.cameras:
             path = f"world/cameras/{cam.name}"
             # x_cam = R x_world + t: the transform maps the parent (world) into the camera's frame.
@@ -522,8 +524,10 @@ class RerunSink:
         rec.log("stats/counts/confirmed_tracks", rr.Scalars(float(len(result.confirmed))))
         for stage, ms in result.timings_ms.items():
             rec.log(f"stats/timing_ms/{stage}", rr.Scalars(float(ms)))
-        if self._rates:
-            rec.log("stats/rate/frames_per_s", rr.Scalars(len(self._rates) / sum(self._rates)))
+        if self._rates:  # the whole loop (decode, track, sinks), over the last logged frames
+            rec.log("stats/rate/frames_per_s", rr.Scalars(len(self._rates) / max(sum(self._rates), 1e-9)))
+        if result.timings_ms.get("step"):  # the tracker's own step alone
+            rec.log("stats/rate/tracker_frames_per_s", rr.Scalars(1000.0 / result.timings_ms["step"]))
         if result.latency_s is not None:
             rec.log("stats/rate/latency_ms", rr.Scalars(1000.0 * result.latency_s))
 
@@ -568,6 +572,11 @@ class RerunSink:
                         proc.wait(5)
                     except subprocess.TimeoutExpired:
                         proc.kill()
+
+    @property
+    def rrd_path(self) -> Path | None:
+        """The .rrd file being written, if any."""
+        return Path(self.outputs.rrd) if self.outputs.rrd is not None else None
 
     def __enter__(self) -> RerunSink:
         return self
@@ -670,7 +679,7 @@ def make_viz_sink(
 ) -> RerunSink | None:
     """The RerunSink the flags ask for, or None when no viewer output is given (and no default_rrd)."""
     outputs = VizOutputs(
-        rrd=args.rrd if args.rrd is not None else (Path(default_rrd) if default_rrd else None),
+        rrd=Path(args.rrd) if args.rrd is not None else (Path(default_rrd) if default_rrd else None),
         spawn=args.spawn,
         connect=args.connect,
         serve=args.serve,

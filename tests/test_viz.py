@@ -6,6 +6,7 @@ balls, one object and one confirmed track per ball).
 """
 
 import argparse
+import re
 import signal
 import subprocess
 import sys
@@ -368,3 +369,65 @@ def test_serve_hosts_a_web_viewer_on_localhost(tmp_path):
     finally:
         sink.close()
     assert server.poll() is not None  # the server child is stopped with the sink
+
+
+# --------------------------------------------------------------------------- end to end through `stereotrack track`
+
+
+def _cli(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "stereotrack", *args], capture_output=True, text=True, timeout=300, **kw)
+
+
+@pytest.fixture(scope="module")
+def small_recording(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("rec") / "pendulum"
+    out = _cli("synth", "pendulum4", "--frames", "40", "--width", "320", "--height", "240", "--out", str(folder), "--no-progress")
+    assert out.returncode == 0, out.stderr
+    return folder
+
+
+def test_track_command_rrd_matches_tracks_csv(small_recording, tmp_path):
+    from stereotrack.trackfile import read_tracks
+
+    rrd, csv = tmp_path / "t.rrd", tmp_path / "tracks.csv"
+    out = _cli("track", str(small_recording), "--out", str(csv), "--rrd", str(rrd), "--quiet")
+    assert out.returncode == 0, out.stderr
+    assert f"open it with: rerun {rrd}" in out.stderr
+    tracks = read_tracks(csv)
+    rows = read_rrd(rrd)
+    logged = {r["frame"]: r for r in rows["world/tracks"] if r["frame"] is not None}
+    assert sorted(logged) == list(range(40))
+    assert len(tracks) > 40  # the pendulums are tracked
+    for frame in range(40):
+        mine = tracks[tracks[:, 0] == frame]
+        r = logged[frame]
+        ids = [int(label.split()[0][1:]) for label in r["Ellipsoids3D:labels"]]
+        assert sorted(ids) == sorted(mine[:, 2].astype(int).tolist())
+        by_id = dict(zip(ids, np.array(r["Ellipsoids3D:centers"]).reshape(-1, 3)))
+        for row in mine:
+            np.testing.assert_allclose(by_id[int(row[2])], row[3:6], atol=2e-5)  # csv keeps 5 decimals, the file float32
+    assert "world/truth" in rows and "stats/error_mm/mean" in rows and "stats/timing_ms/step" in rows
+
+
+def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path):
+    rrd = tmp_path / "cut.rrd"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stereotrack", "track", str(small_recording), "--out", str(tmp_path / "t.csv"), "--rrd", str(rrd), "--realtime"],
+        stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        for line in proc.stderr:  # non-terminal progress: a line every 10 %
+            done = re.search(r"(\d+)/40 frames", line)
+            if done and int(done.group(1)) >= 4:
+                break
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "interrupted" in err
+    verify = subprocess.run([RERUN, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+    assert verify.returncode == 0, verify.stderr
+    frames = [r["frame"] for r in read_rrd(rrd)["world/tracks"]]
+    # --realtime skips frames it is late for, as a live camera would: increasing, not contiguous.
+    assert 4 <= len(frames) and frames[-1] < 39 and frames == sorted(set(frames))
