@@ -9,6 +9,7 @@ short gaps by interpolation, and keep the longest tracks as the balls.
 
 from __future__ import annotations
 
+import gzip
 import io
 import os
 from dataclasses import dataclass
@@ -81,19 +82,21 @@ def interpolate(times: np.ndarray, positions: np.ndarray, t: np.ndarray) -> np.n
 
 
 def find_real_data(relative: str) -> Path:
-    """Locate a file of the shared real data set.
+    """Locate a motion-capture file of the real data set.
 
-    Looked for under $STEREOTRACK_REAL_DATA, then ``../shared/data/real`` next
-    to the repository (the project's layout).
+    Looked for under $STEREOTRACK_REAL_DATA, then in the package's bundled
+    copy (``stereotrack/data``, gzipped), then ``../shared/data/real`` next to
+    the repository (the project's shared layout).
     """
     roots = []
     if os.environ.get("STEREOTRACK_REAL_DATA"):
         roots.append(Path(os.environ["STEREOTRACK_REAL_DATA"]))
-    repo = Path(__file__).resolve().parent.parent
-    roots += [repo.parent / "shared" / "data" / "real", repo / "data" / "real"]
+    here = Path(__file__).resolve().parent
+    roots += [here / "data", here.parent.parent / "shared" / "data" / "real"]
     for root in roots:
-        if (root / relative).is_file():
-            return root / relative
+        for candidate in (root / relative, root / (relative + ".gz")):
+            if candidate.is_file():
+                return candidate
     raise StereotrackError(
         f"real data file {relative} not found under {', '.join(str(r) for r in roots)} (set STEREOTRACK_REAL_DATA to the folder holding it)"
     )
@@ -104,7 +107,8 @@ def read_qualisys_tsv(path: str | Path) -> MocapCapture:
     path = Path(path)
     if not path.is_file():
         raise StereotrackError(f"{path}: motion-capture file not found")
-    lines = path.read_text().splitlines()
+    text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else path.read_text()
+    lines = text.splitlines()
     header: dict[str, list[str]] = {}
     start = None
     for i, line in enumerate(lines):
