@@ -28,6 +28,7 @@ from .abduction import find_blobs
 from .camera import Camera, Rig
 from .colour import camera_masks
 from .config import Config
+from .errors import StereotrackError
 from .recording import FramePair
 from .results import FrameResult, Object3D, Rays
 from .tracks import TrackManager
@@ -110,6 +111,8 @@ class BaselineTracker:
     """The classic OpenCV tracker with the particle ``Tracker``'s interface: ``step(frame_pair) -> FrameResult``."""
 
     def __init__(self, rig: Rig, config: Config):
+        if not config.targets:
+            raise StereotrackError("no targets to track: the config has an empty 'targets' list (see 'stereotrack colour learn')")
         self.rig = rig
         self.config = config
         self.cam_a, self.cam_b = rig.cameras[0], rig.cameras[1]
@@ -117,6 +120,14 @@ class BaselineTracker:
         self.tracks = TrackManager(config.tracks)
 
     def step(self, frame: FramePair) -> FrameResult:
+        if len(frame.images) != len(self.rig):
+            raise StereotrackError(f"got {len(frame.images)} images per frame but the calibration has {len(self.rig)} cameras")
+        for cam, img in zip(self.rig.cameras, frame.images):
+            if img.shape[1] != cam.width or img.shape[0] != cam.height:
+                raise StereotrackError(
+                    f"frame from {cam.name} is {img.shape[1]}x{img.shape[0]} but the calibration says {cam.width}x{cam.height} "
+                    f"(set the camera to the calibrated resolution or recalibrate)"
+                )
         timings: dict[str, float] = {}
         t0 = _time.perf_counter()
         targets = self.config.targets
@@ -136,7 +147,7 @@ class BaselineTracker:
         t3 = _time.perf_counter()
         tracks = self.tracks.update(objects, frame.time)
         t4 = _time.perf_counter()
-        timings.update(masks=1e3 * (t1 - t0), blobs=1e3 * (t2 - t1), matching=1e3 * (t3 - t2), tracks=1e3 * (t4 - t3))
+        timings.update(masks=1e3 * (t1 - t0), blobs=1e3 * (t2 - t1), matching=1e3 * (t3 - t2), tracks=1e3 * (t4 - t3), step=1e3 * (t4 - t0))
         return FrameResult(frame=frame, objects=objects, tracks=tracks, rays=rays, masks=masks, timings_ms=timings)
 
     def detections_to_objects(self, centres: Mapping[str, Sequence[np.ndarray]]) -> tuple[tuple[Object3D, ...], tuple[Rays, ...]]:

@@ -16,6 +16,7 @@ from stereotrack.baseline import (
 )
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at, triangulate_points
 from stereotrack.config import config_from_dict
+from stereotrack.errors import StereotrackError
 from stereotrack.recording import FramePair
 
 DATA = Path(__file__).parent / "data" / "tabletennis-2cam"
@@ -215,7 +216,7 @@ def test_baseline_tracker_end_to_end_on_drawn_frames():
         frame = FramePair(index=i, images=draw_balls(rig, truth, 0.035), timestamps=(t, t + 0.0005))
         result = tracker.step(frame)
         assert len(result.objects) == 3
-        assert set(result.timings_ms) == {"masks", "blobs", "matching", "tracks"}
+        assert set(result.timings_ms) == {"masks", "blobs", "matching", "tracks", "step"}
         assert result.masks[("green", "cam0")].max() == 1
         for tr in result.confirmed:
             d = np.linalg.norm(truth - tr.position, axis=1)
@@ -226,3 +227,13 @@ def test_baseline_tracker_end_to_end_on_drawn_frames():
     assert len(errors) == 3 * 9  # confirmed from 0.1 s (frame 3) on
     # Disc centroids are not exact ball centres (anti-aliasing, perspective): within 1 cm, not 1 micrometre.
     assert np.max(errors) < 0.01
+
+
+def test_user_errors_are_one_line_messages():
+    rig = stereo_rig()
+    with pytest.raises(StereotrackError, match="no targets"):
+        BaselineTracker(rig, config_from_dict({}))
+    tracker = BaselineTracker(rig, config_from_dict({"targets": [GREEN]}))
+    small = np.zeros((240, 320, 3), np.uint8)
+    with pytest.raises(StereotrackError, match="320x240 but the calibration says 640x480"):
+        tracker.step(FramePair(index=0, images=(small, small), timestamps=(0.0, 0.0)))
