@@ -237,3 +237,20 @@ def test_demo_recording_is_rendered_once_and_atomically(tmp_path, monkeypatch):
     ensure_demo_recording(tmp_path)
     assert open_recording(demo).n_frames == 4
     assert [p.name for p in (tmp_path / "recordings").iterdir()] == ["demo"]
+
+
+def test_committed_demo_calibration_is_the_pendulum4_rig():
+    from pathlib import Path
+
+    from stereotrack.camera import load_rig
+
+    committed = load_rig(Path(__file__).resolve().parent.parent / "calib" / "demo.yaml")
+    rig = make_preset("pendulum4").rig.build()
+    assert committed.world == "custom" and committed.names == rig.names
+    for a, b in zip(committed.cameras, rig.cameras):
+        assert a.image_size == b.image_size and np.allclose(a.K, b.K) and np.allclose(a.R, b.R) and np.allclose(a.t, b.t)
+    assert abs(rig.baseline() - 0.3) < 1e-12
+    # World frame: origin midway between the cameras, y forward, z up, cameras aimed 1.5 m ahead.
+    assert np.allclose((rig[0].centre + rig[1].centre) / 2, 0) and rig[0].centre[0] < rig[1].centre[0]
+    uv, _ = rig[0].project(np.array([[0.0, 1.5, 0.0], [0.0, 1.5, 0.2]]))
+    assert np.allclose(uv[0], rig[0].K[:2, 2]) and uv[1, 1] < uv[0, 1]  # the aim point at the image centre; up is up
