@@ -19,6 +19,7 @@ COMMANDS: list[str] = [
     "colour",
     "record",
     "cameras",
+    "live",
     "synth",
 ]
 

@@ -14,7 +14,9 @@ Device specs on the command line (``--cam0 SPEC``):
   ``--cam0 sim:pendulum4 --cam1 sim:pendulum4`` is a stereo pair), ``jitter``
   (timestamp jitter s.d., seconds, default 0.002), ``drop`` (probability that
   the device loses a frame, default 0.01), ``stop`` (seconds after which the
-  camera hangs, like an unplugged webcam), ``seed`` (default: the slot).
+  camera hangs, like an unplugged webcam), ``seed`` (default: the slot),
+  ``loop`` (render that many seconds up front and loop them: a camera that
+  costs no CPU, for benchmarks).
 """
 
 from __future__ import annotations
@@ -96,19 +98,26 @@ class _SharedScene:
     _registry: dict[tuple, "_SharedScene"] = {}
     _registry_lock = threading.Lock()
 
-    def __init__(self, preset: str, width: int, height: int, fps: float):
+    def __init__(self, preset: str, width: int, height: int, fps: float, loop: float | None = None):
         self.preset = preset
         self.renderer = _make_renderer(preset, width, height, fps)
-        self.n_frames = int(getattr(self.renderer, "n_frames", 0) or getattr(getattr(self.renderer, "spec", None), "n_frames", 0) or 1 << 30)
+        self.n_frames = int(getattr(self.renderer, "n_frames", 0) or 1 << 30)
         self._lock = threading.Lock()
         self._cache: dict[int, tuple[np.ndarray, ...]] = {}
+        self._keep_all = loop is not None
+        if loop is not None:
+            # Render the first seconds up front and loop them: the camera then costs no CPU,
+            # like a real webcam, so benchmarks measure the tracker, not the renderer.
+            self.n_frames = max(1, min(self.n_frames, round(loop * fps)))
+            for k in range(self.n_frames):
+                self._cache[k] = tuple(self.renderer.render(k)[0])
 
     @classmethod
-    def get(cls, preset: str, width: int, height: int, fps: float) -> "_SharedScene":
-        key = (preset, width, height, fps)
+    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> "_SharedScene":
+        key = (preset, width, height, fps, loop)
         with cls._registry_lock:
             if key not in cls._registry:
-                cls._registry[key] = cls(preset, width, height, fps)
+                cls._registry[key] = cls(preset, width, height, fps, loop)
             return cls._registry[key]
 
     def image(self, frame_index: int, view: int) -> np.ndarray:
@@ -118,7 +127,7 @@ class _SharedScene:
             if images is None:
                 images = tuple(self.renderer.render(k)[0])
                 self._cache[k] = images
-                for old in [i for i in self._cache if i < k - 8]:
+                for old in [i for i in self._cache if i < k - 8 and not self._keep_all]:
                     del self._cache[old]
         if view >= len(images):
             raise StereotrackError(f"sim:{self.preset} has {len(images)} cameras; view={view} does not exist (use view=0..{len(images) - 1})")
@@ -153,8 +162,9 @@ class SimulatedCamera:
     finite = False
 
     def __init__(self, preset: str = "dots", view: int = 0, jitter: float = 0.002, drop: float = 0.01,
-                 stop_after: float | None = None, seed: int = 0, width: int = 640, height: int = 480, fps: float = 30.0):
-        self.preset, self.view = preset, int(view)
+                 stop_after: float | None = None, seed: int = 0, width: int = 640, height: int = 480, fps: float = 30.0,
+                 loop: float | None = None):
+        self.preset, self.view, self.loop = preset, int(view), loop
         self.jitter, self.drop, self.stop_after = float(jitter), float(drop), stop_after
         self._props = {cv2.CAP_PROP_FRAME_WIDTH: float(width), cv2.CAP_PROP_FRAME_HEIGHT: float(height), cv2.CAP_PROP_FPS: float(fps)}
         self._rng = np.random.default_rng(seed)
@@ -162,6 +172,7 @@ class SimulatedCamera:
         self._start: float | None = None
         self._next = 0
         self._grabbed: int | None = None
+        self._grab_time = 0.0
         self._released = threading.Event()
 
     def isOpened(self) -> bool:
@@ -178,18 +189,25 @@ class SimulatedCamera:
         return False
 
     def get(self, prop: int) -> float:
+        if prop == cv2.CAP_PROP_POS_MSEC:
+            return self._grab_time * 1000.0  # like V4L2's buffer timestamp: when the frame was taken
         return float(self._props.get(prop, 0.0))
 
     @property
     def fps(self) -> float:
         return self._props[cv2.CAP_PROP_FPS]
 
+    def prepare(self) -> None:
+        """Build (and with ``loop``, pre-render) the scene now, before the clock starts; size and fps are then fixed."""
+        if self._scene is None:
+            w, h = int(self._props[cv2.CAP_PROP_FRAME_WIDTH]), int(self._props[cv2.CAP_PROP_FRAME_HEIGHT])
+            self._scene = _SharedScene.get(self.preset, w, h, self.fps, self.loop)
+
     def grab(self) -> bool:
         if self._released.is_set():
             return False
-        if self._scene is None:
-            w, h = int(self._props[cv2.CAP_PROP_FRAME_WIDTH]), int(self._props[cv2.CAP_PROP_FRAME_HEIGHT])
-            self._scene = _SharedScene.get(self.preset, w, h, self.fps)
+        if self._start is None:
+            self.prepare()
             self._start = time.monotonic()
         period = 1.0 / self.fps
         while True:
@@ -210,6 +228,7 @@ class SimulatedCamera:
             elif now - due > period:
                 continue  # the host was too slow: this frame was overwritten in the device
             self._grabbed = k
+            self._grab_time = due
             return True
 
     def retrieve(self) -> tuple[bool, np.ndarray | None]:
@@ -277,7 +296,8 @@ def _parse_sim(spec: str, slot: int) -> dict[str, Any]:
     if not preset:
         raise StereotrackError(f"{spec!r}: name a scene after 'sim:', e.g. sim:pendulum4 (see `stereotrack synth --list`)")
     kwargs: dict[str, Any] = {"preset": preset, "view": slot, "seed": slot}
-    casts = {"view": ("view", int), "jitter": ("jitter", float), "drop": ("drop", float), "stop": ("stop_after", float), "seed": ("seed", int)}
+    casts = {"view": ("view", int), "jitter": ("jitter", float), "drop": ("drop", float), "stop": ("stop_after", float), "seed": ("seed", int),
+             "loop": ("loop", float)}
     for opt in options:
         key, _, value = opt.partition("=")
         if key not in casts:
@@ -309,6 +329,7 @@ def open_device(spec: str, slot: int = 0, settings: CaptureSettings = CaptureSet
             cam.set(cv2.CAP_PROP_FRAME_HEIGHT, settings.height)
         if settings.fps:
             cam.set(cv2.CAP_PROP_FPS, settings.fps)
+        cam.prepare()
         return cam
     if spec.lstrip("-").isdigit():
         return open_webcam(int(spec), settings)

@@ -5,7 +5,9 @@ Every source is an iterable of ``FramePair`` with ``.rig``, ``.fps``,
 so the tracker never knows whether frames come from webcams or a folder.
 
 Live capture: one thread per camera grabs frames and stamps each with
-``time.monotonic()`` right after the grab. A ``Pairer`` matches frames whose
+``time.monotonic()`` right after the grab (or with the device's own capture
+time when it reports one on that clock, as V4L2 does: it is not delayed by
+a busy interpreter). A ``Pairer`` matches frames whose
 timestamps lie within a tolerance (half a frame period by default); a frame
 that cannot be matched is dropped and counted, never paired with a stale one.
 Pairs wait in a bounded queue: when the consumer is slow the oldest pair is
@@ -124,6 +126,11 @@ class _CameraThread(threading.Thread):
                         self.error = f"camera {self.source.camera_names[self.slot]} ({describe(self.spec)}) stopped delivering frames (unplugged?)"
                     break
                 stamp = clock()
+                # The device's own capture time (V4L2 buffer timestamp, on the same monotonic
+                # clock) is exact, while our stamp waits for the GIL: prefer it when plausible.
+                device_time = self.device.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
+                if self.source.clock is time.monotonic and stamp - 1.0 < device_time <= stamp:
+                    stamp = device_time
                 ok, image = self.device.retrieve()
                 if not ok or image is None:
                     continue  # a corrupt frame (MJPG decode error): skip it, the next one may be fine
@@ -291,7 +298,7 @@ def paced(
     sleep: Callable[[float], None] = time.sleep,
     on_skip: Callable[[FramePair], None] | None = None,
 ) -> Iterator[FramePair]:
-    """Yield pairs at their recorded pace (the mean of each row of ``timestamps``).
+    """Yield pairs at their recorded pace; row i of ``timestamps`` holds the i-th pair's capture times.
 
     With ``skip_late`` a pair more than one frame period behind schedule is
     skipped (``on_skip`` is told), as a live camera would drop it, so a slow
@@ -300,8 +307,7 @@ def paced(
     times = np.asarray(timestamps, dtype=float).reshape(len(timestamps), -1).mean(axis=1)
     period = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     start_wall = start_rec = None
-    for pair in pairs:
-        t = times[pair.index]
+    for pair, t in zip(pairs, times):  # row i of timestamps belongs to the i-th pair, whatever its index
         if start_wall is None:
             start_wall, start_rec = clock(), t
         due = start_wall + (t - start_rec)
@@ -336,7 +342,7 @@ class RecordingSource:
         frames = self.recording.frames(self._start, self._stop)
         self._frames = frames
         if self.realtime:
-            frames = paced(frames, self.recording.timestamps, self.skip_late, on_skip=self._count_skip)
+            frames = paced(frames, self.recording.timestamps[self._start : self._stop], self.skip_late, on_skip=self._count_skip)
         for pair in frames:
             self._delivered += 1
             yield pair

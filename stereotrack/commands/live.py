@@ -1,0 +1,194 @@
+"""Track balls live from two or more cameras.
+
+Frames are paired by capture time as in `stereotrack record`; the tracker always
+takes the newest pair (pairs it had no time for are dropped and counted, so the
+delay never grows). One status line on stderr shows the tracker's frames/s, the
+grab-to-estimate latency and the cameras' frames/s; the summary at the end gives
+the latency's median and 95th percentile.
+
+--record DIR also writes the pairs the tracker saw as a recording, so the session
+can be replayed exactly: `stereotrack track DIR --realtime`.
+
+Simulated cameras (sim:PRESET on every camera) need neither --calib nor --config:
+the scene's rig and targets are used.
+
+examples:
+  stereotrack live --cam0 0 --cam1 2 --calib calib/desk.yaml --config pink.yaml --spawn
+  stereotrack live --cam0 0 --cam1 2 --calib calib/desk.yaml --config pink.yaml --record recordings/s1 --out s1.csv
+  stereotrack live --cam0 sim:pendulum4 --cam1 sim:pendulum4 --seconds 20 --rrd live.rrd
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ._capture_args import DEVICE_HELP, add_camera_arguments, camera_specs, capture_settings
+
+HELP = "track live from two or more cameras (optionally recording them)"
+__doc__ = __doc__ + "\n" + DEVICE_HELP
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--calib", metavar="FILE", help="calibration YAML of the cameras (required unless every camera is sim:)")
+    parser.add_argument("--config", metavar="FILE", help="target/tracker config YAML (required unless every camera is sim:)")
+    parser.add_argument("--out", metavar="CSV", help="write the tracks to this CSV (formats.md section 3)")
+    parser.add_argument("--record", metavar="DIR", help="also record the frame pairs the tracker saw into this recording folder")
+    parser.add_argument("--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec for --record (default ffv1, lossless)")
+    parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--quiet", action="store_true", help="no status line")
+    add_camera_arguments(parser)
+    try:
+        from ..viz import add_viz_arguments
+    except ImportError:
+        return
+    add_viz_arguments(parser)
+
+
+def simulated_scene(specs: list[str], settings):
+    """(rig, config) of the scene that every sim: camera films, or None if not all cameras are simulated."""
+    from ..errors import StereotrackError
+
+    if not all(s.startswith("sim:") for s in specs):
+        return None
+    presets = {s[4:].split(",")[0] for s in specs}
+    if len(presets) != 1:
+        raise StereotrackError(f"the simulated cameras film different scenes ({', '.join(sorted(presets))}); give --calib and --config")
+    preset = presets.pop()
+    if preset == "dots":
+        raise StereotrackError("sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config")
+    from ..synth import make_preset
+
+    spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
+    return spec.rig.build(), spec.config()
+
+
+class LatencySink:
+    """Grab-to-estimate latency of every frame (called right after the tracker step) and the status line."""
+
+    def __init__(self, source, clock, show: bool = True):
+        from ..console import Progress
+
+        self.source = source
+        self.clock = clock
+        self.latencies: list[float] = []
+        self.step_ms: list[float] = []
+        self.tracks = 0
+        self.progress = Progress(None, "live", "frames", enabled=show)
+
+    def write(self, result) -> None:
+        self.latencies.append(self.clock() - max(result.frame.timestamps))
+        self.step_ms.append(result.timings_ms.get("step", 0.0))
+        recent = self.latencies[-30:]
+        self.tracks = len(result.confirmed)
+        self.progress.update(1, extra=f"latency {1000 * sorted(recent)[len(recent) // 2]:.0f} ms | {self.tracks} tracks | {self.source.stats.line()}")
+
+    def close(self) -> None:
+        self.progress.close()
+
+
+def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = True):
+    """Track ``source`` until it ends, Ctrl-C/SIGTERM, or ``seconds``; returns (RunSummary, latencies in s)."""
+    import itertools
+    import time
+
+    from ..pipeline import run_pipeline
+    from ..sources import StopOnSignals
+
+    latency = LatencySink(source, time.monotonic, show)
+
+    def frames():
+        start = time.monotonic()
+        for pair in source:
+            yield pair
+            if seconds is not None and time.monotonic() - start >= seconds:
+                return
+
+    with StopOnSignals(source):
+        try:
+            summary = run_pipeline(frames(), tracker, [latency, *sinks], progress=False)
+        finally:
+            source.close()
+    return summary, latency
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..camera import load_rig
+    from ..config import load_config
+    from ..console import info
+    from ..errors import StereotrackError
+    from ..recording import RecordingSink
+    from ..sources import CameraPairSource
+    from ..trackfile import TracksCsvSink
+    from .track import make_tracker
+
+    specs = camera_specs(args)
+    settings = capture_settings(args)
+    if args.seconds is not None and args.seconds <= 0:
+        raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
+    scene = simulated_scene(specs, settings) if not (args.calib and args.config) else None
+    if args.calib:
+        rig = load_rig(args.calib)
+    elif scene:
+        rig = scene[0]
+    else:
+        raise StereotrackError("live tracking needs the cameras' calibration: pass --calib FILE (see `stereotrack calibrate`)")
+    if args.config:
+        config = load_config(args.config)
+    elif scene:
+        config = scene[1]
+    else:
+        raise StereotrackError("live tracking needs the target colours: pass --config FILE (see `stereotrack colour learn`)")
+    if not config.targets:
+        raise StereotrackError(f"{args.config}: no targets to track; add some under 'targets:'")
+    for cam in rig.cameras:
+        if settings.width and settings.height and tuple(cam.image_size) != (settings.width, settings.height):
+            raise StereotrackError(f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}")
+
+    sinks = []
+    if args.out:
+        sinks.append(TracksCsvSink(args.out))
+    try:
+        from ..viz import make_viz_sink
+    except ImportError:
+        make_viz_sink = None
+    viz = make_viz_sink(args, rig, config, recording_name="live") if make_viz_sink is not None and hasattr(args, "rrd") else None
+    if viz is not None:
+        sinks.append(viz)
+    recorder = None
+    if args.record:
+        from pathlib import Path
+
+        out = Path(args.record)
+        if out.exists() and any(out.iterdir()):
+            raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
+        from ..config import config_to_dict
+
+        # the pairs the tracker saw, with the rig and targets in force: a replay is exact
+        recorder = RecordingSink(out, [c.name for c in rig.cameras], settings.fps or 30.0, rig=rig, codec=args.codec,
+                                 source="live", targets=config_to_dict(config), extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))})
+        sinks.append(recorder)
+
+    # queue_size=1: the tracker always gets the newest pair; latency cannot build up
+    source = CameraPairSource(specs, [c.name for c in rig.cameras], settings, rig=rig, queue_size=1, stall_timeout=args.stall_timeout)
+    tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
+    summary, latency = run_live(source, tracker, sinks, args.seconds, show=not args.quiet)
+
+    stats = source.stats
+    lat = np.asarray(latency.latencies) * 1000
+    if len(lat):
+        third = max(1, len(lat) // 3)
+        info(
+            f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s; tracker step median {summary.mean_step_ms:.1f} ms); "
+            f"grab-to-estimate latency median {np.median(lat):.0f} ms, 95% {np.percentile(lat, 95):.0f} ms "
+            f"(first third {np.median(lat[:third]):.0f} ms, last third {np.median(lat[-third:]):.0f} ms); "
+            f"{stats.pairs_dropped} pairs dropped while the tracker was busy, unpaired frames {'/'.join(str(c.unpaired) for c in stats.cameras)}"
+        )
+    if args.out:
+        info(f"tracks written to {args.out}")
+    if recorder is not None:
+        info(f"{recorder.count} pairs recorded in {args.record}; replay with: stereotrack track {args.record} --realtime")
+    if viz is not None and getattr(viz, "rrd_path", None):
+        info(f"rerun recording written to {viz.rrd_path}; open it with: rerun {viz.rrd_path}")
+    return 0
