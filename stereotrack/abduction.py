@@ -23,18 +23,22 @@ class Blobs:
     centres: np.ndarray  # M x 2 pixel centroids (x, y)
     areas: np.ndarray  # M pixel counts
     radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side)
+    labels: np.ndarray | None = None  # H x W int32 component label image (components only)
+    label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
 
     def __len__(self) -> int:
         return len(self.centres)
 
 
 def _components(mask: np.ndarray, min_area: int) -> Blobs:
-    n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
     stats, centroids = stats[1:], centroids[1:]
     keep = stats[:, cv2.CC_STAT_AREA] >= min_area
+    label_blob = np.full(n, -1)
+    label_blob[1:][keep] = np.arange(keep.sum())
     stats, centroids = stats[keep], centroids[keep]
     radii = 0.5 * np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
-    return Blobs(centroids.astype(float), stats[:, cv2.CC_STAT_AREA].astype(float), radii.astype(float))
+    return Blobs(centroids.astype(float), stats[:, cv2.CC_STAT_AREA].astype(float), radii.astype(float), labels, label_blob)
 
 
 def _local_maxima(hist: np.ndarray, min_count: float) -> np.ndarray:

@@ -11,8 +11,10 @@ ISODATA rules, all driven by the ball radius R:
 - seed: last frame's objects (warm start), plus the heaviest particle farther
   than ``2 R`` from every seed while it carries enough mass (new balls);
 - discard: clusters with too little weight or too few particles;
-- merge: two clusters whose centres are closer than ``R`` (one ball; two
-  balls touching are ``2 R`` apart and stay two);
+- merge: two clusters closer than ``R``, or closer than ``2 R`` while no
+  camera sees them more than half a ball apart (one ball's cloud is
+  elongated along the viewing direction; two balls touching are ``2 R``
+  apart and stay two);
 - split: a cluster whose particles, projected into some camera, spread wider
   than one ball looks there (``f R / Z``), into two along that direction.
 """
@@ -37,6 +39,7 @@ class ClusterSettings:
     min_particles: int = 8
     max_objects: int = 12
     em_iterations: int = 6
+    em_points: int = 400  # EM runs on at most this many particles, resampled by weight
     split_factor: float = 1.0  # split when the projected spread (std) exceeds this many apparent radii
     method: str = "numpy"  # "numpy" (weighted EM) or "sklearn" (GaussianMixture on resampled particles)
 
@@ -56,13 +59,13 @@ def _empty(n: int) -> Clusters:
 
 def _log_gauss(X: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
     """log N(x | mean_k, cov_k) for every point and component: N x K."""
-    L = np.linalg.cholesky(covs)  # K x 3 x 3
-    diff = X[None, :, :] - means[:, None, :]  # K x N x 3
-    # Solve L y = diff for each component (3x3 triangular, batched).
-    y = np.linalg.solve(L, diff.transpose(0, 2, 1))  # K x 3 x N
-    maha = (y * y).sum(axis=1)  # K x N
-    logdet = 2 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum(axis=1)  # K
-    return (-0.5 * (maha + logdet[:, None] + 3 * _LOG2PI)).T
+    inv = np.linalg.inv(covs)  # K x 3 x 3
+    _, logdet = np.linalg.slogdet(covs)
+    out = np.empty((len(X), len(means)))
+    for k in range(len(means)):  # K is small (balls); each term is vectorised over particles
+        d = X - means[k]
+        out[:, k] = ((d @ inv[k]) * d).sum(axis=1)
+    return -0.5 * (out + logdet + 3 * _LOG2PI)
 
 
 def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarray, iterations: int, reg: float):
@@ -79,8 +82,10 @@ def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarra
         rw = resp * w[:, None]  # N x K
         nk = rw.sum(axis=0) + 1e-300
         means = (rw.T @ X) / nk[:, None]
-        diff = X[None, :, :] - means[:, None, :]
-        covs = np.einsum("kn,kni,knj->kij", rw.T, diff, diff) / nk[:, None, None] + eye
+        covs = np.empty((k, 3, 3))
+        for j in range(k):
+            d = X - means[j]
+            covs[j] = (rw[:, j, None] * d).T @ d / nk[j] + eye
         pis = nk / nk.sum()
     return means, covs, pis, resp
 
@@ -107,25 +112,39 @@ def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) ->
     return np.searchsorted(cdf, u, side="right").clip(0, len(weights) - 1)
 
 
-def _seeds(X, w, prev_means, radius, min_mass, max_objects):
-    """Warm-start seeds (previous objects with mass nearby) + greedy new modes."""
+def _seeds(X, w, prev_means, radius, min_mass, max_objects, cameras):
+    """Warm-start seeds (previous objects with mass nearby) + greedy new modes.
+
+    A new seed claims the particles that are the same ball as it: within
+    ``2 R`` in 3D, or inside its apparent disc in every camera (a ball's cloud
+    is long along the viewing direction, short across it).
+    """
+    views = []
+    for cam in cameras:
+        uv, ok = cam.project(X)
+        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.maximum(cam.depth(X), 1e-6)
+        views.append((uv, ok, r_px))
+
+    def same_ball(centre_index: int) -> np.ndarray:
+        near = ((X - X[centre_index]) ** 2).sum(1) < (2 * radius) ** 2
+        disc = np.ones(len(X), bool)
+        for uv, ok, r_px in views:
+            disc &= ok & (((uv - uv[centre_index]) ** 2).sum(1) < r_px[centre_index] ** 2)
+        return near | disc
+
     seeds = []
-    near_r2 = (2 * radius) ** 2
+    free = np.ones(len(X), bool)
     for m in prev_means:
-        d2 = ((X - m) ** 2).sum(1)
-        near = d2 < near_r2
+        near = ((X - m) ** 2).sum(1) < (2 * radius) ** 2
         if w[near].sum() >= min_mass:
             seeds.append(np.average(X[near], axis=0, weights=w[near]))
-    free = np.ones(len(X), bool)
-    for s in seeds:
-        free &= ((X - s) ** 2).sum(1) >= near_r2
+            free &= ~near
     while len(seeds) < max_objects and free.any():
         i = np.flatnonzero(free)[np.argmax(w[free])]
-        d2 = ((X - X[i]) ** 2).sum(1)
-        near = d2 < near_r2
-        free &= ~near
-        if w[near].sum() >= min_mass:
-            seeds.append(np.average(X[near], axis=0, weights=w[near]))
+        claim = same_ball(i) & free
+        free &= ~claim
+        if w[claim].sum() >= min_mass:
+            seeds.append(np.average(X[claim], axis=0, weights=w[claim]))
     return np.array(seeds).reshape(-1, 3)
 
 
@@ -157,6 +176,25 @@ def _projected_spread(cameras: Sequence[Camera], X: np.ndarray, w: np.ndarray, m
     return best, direction
 
 
+def _merge_pair(cameras: Sequence[Camera], means: np.ndarray, radius: float) -> tuple[int, int] | None:
+    k = len(means)
+    if k < 2:
+        return None
+    d3 = np.linalg.norm(means[:, None] - means[None], axis=2) + np.eye(k) * 1e9
+    sep = np.zeros((k, k))  # largest separation over cameras, in apparent ball radii
+    for cam in cameras:
+        uv, ok = cam.project(means)
+        z = np.maximum(cam.depth(means), 1e-6)
+        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / z
+        d_px = np.linalg.norm(uv[:, None] - uv[None], axis=2) / np.minimum(r_px[:, None], r_px[None])
+        sep = np.maximum(sep, np.where(ok[:, None] & ok[None], d_px, np.inf))
+    one_ball = (d3 < radius) | ((d3 < 2 * radius) & (sep < 0.5))
+    if not one_ball.any():
+        return None
+    i, j = np.unravel_index(np.argmin(np.where(one_ball, d3, np.inf)), d3.shape)
+    return int(min(i, j)), int(max(i, j))
+
+
 def cluster_particles(
     positions: np.ndarray,
     weights: np.ndarray,
@@ -171,20 +209,28 @@ def cluster_particles(
     keep = likelihoods >= settings.min_likelihood
     if keep.sum() < settings.min_particles:
         return _empty(n)
-    X, w = positions[keep], weights[keep]
+    X_all, w_all = positions[keep], weights[keep]
+    rng = rng or np.random.default_rng(0)
+    if len(X_all) > settings.em_points:
+        # EM on a weight-proportional subsample (systematic, so it keeps the weights' shape) is as
+        # accurate for ball-sized clusters and several times cheaper; labels come from all particles.
+        idx = systematic_indices(w_all / w_all.sum(), settings.em_points, rng)
+        X, w = X_all[idx], np.full(settings.em_points, w_all.sum() / settings.em_points)
+    else:
+        X, w = X_all, w_all
     R = settings.radius
     reg = (R / 4) ** 2
     prev = np.zeros((0, 3)) if prev_means is None else prev_means
-    means = _seeds(X, w, prev, R, settings.min_mass, settings.max_objects)
+    means = _seeds(X, w, prev, R, settings.min_mass, settings.max_objects, cameras)
     if len(means) == 0:
         return _empty(n)
     covs = np.repeat((np.eye(3) * R * R)[None], len(means), axis=0)
-    rng = rng or np.random.default_rng(0)
-    for _round in range(4):  # ISODATA: EM, then discard / merge / split, until stable
+    for _round in range(10):  # ISODATA: EM, then discard / merge / split, until stable
+        iterations = settings.em_iterations if _round == 0 else 2  # later rounds only settle a local change
         if settings.method == "sklearn":
-            means, covs, pis, resp = _sklearn_em(X, w, means, covs, settings.em_iterations, reg, rng)
+            means, covs, pis, resp = _sklearn_em(X, w, means, covs, iterations, reg, rng)
         else:
-            means, covs, pis, resp = weighted_em(X, w, means, covs, settings.em_iterations, reg)
+            means, covs, pis, resp = weighted_em(X, w, means, covs, iterations, reg)
         labels = resp.argmax(axis=1)
         mass = np.bincount(labels, weights=w, minlength=len(means))
         count = np.bincount(labels, minlength=len(means))
@@ -195,15 +241,15 @@ def cluster_particles(
             if len(means) == 0:
                 return _empty(n)
             continue
-        # Merge the closest pair if it is closer than one radius.
-        if len(means) > 1:
-            d = np.linalg.norm(means[:, None] - means[None], axis=2) + np.eye(len(means)) * 1e9
-            i, j = np.unravel_index(np.argmin(d), d.shape)
-            if d[i, j] < R:
-                wi, wj = mass[i], mass[j]
-                means[i] = (wi * means[i] + wj * means[j]) / (wi + wj)
-                means, covs = np.delete(means, j, 0), np.delete(covs, j, 0)
-                continue
+        # Merge a pair that is one ball: closer than R, or closer than 2R (touching balls are 2R
+        # apart) while no camera sees them more than half a ball apart (a depth-elongated cloud).
+        pair = _merge_pair(cameras, means, R)
+        if pair is not None:
+            i, j = pair
+            wi, wj = mass[i], mass[j]
+            means[i] = (wi * means[i] + wj * means[j]) / (wi + wj)
+            means, covs = np.delete(means, j, 0), np.delete(covs, j, 0)
+            continue
         # Split the widest cluster if it is wider than one ball in some camera.
         if len(means) < settings.max_objects:
             worst, split = 0.0, None
@@ -220,8 +266,11 @@ def cluster_particles(
                 continue
         if not changed:
             break
-    # Final labels and per-cluster weighted statistics over the kept particles.
-    labels = weighted_em(X, w, means, covs, 1, reg)[3].argmax(axis=1)  # E-step against the final means
+    # Final labels (E-step against the final mixture) and weighted statistics over all kept particles.
+    means, covs, pis, _ = weighted_em(X, w, means, covs, 1, reg)
+    X, w = X_all, w_all
+    logp = _log_gauss(X, means, covs) + np.log(np.maximum(pis, 1e-300))
+    labels = logp.argmax(axis=1)
     K = len(means)
     out_means = np.zeros((K, 3))
     out_covs = np.zeros((K, 3, 3))

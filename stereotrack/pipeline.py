@@ -20,6 +20,7 @@ from .colour import camera_masks
 from .config import Config
 from .console import Progress
 from .errors import StereotrackError
+from .explain import ExplainSettings, explain
 from .population import Population
 from .recording import FramePair
 from .results import FrameResult, Object3D, ParticleSet, Rays, Sink
@@ -53,6 +54,7 @@ class Tracker:
             )
             for t in config.targets
         }
+        self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks)
@@ -94,15 +96,17 @@ class Tracker:
         timings["particles"] = 1e3 * (t3 - t2)
         objects: list[Object3D] = []
         particle_sets = []
+        predicted = [tr for tr in self.identities.predicted(now) if tr.state == "confirmed"]
         for t in self.config.targets:
             st = states[t.name]
             cl = cluster_particles(st.positions, st.weights, st.likelihoods, cams, self.cluster_settings[t.name], self.prev_means[t.name], self.cluster_rng)
             self.prev_means[t.name] = cl.means
-            base = len(objects)
-            for k in range(len(cl.means)):
-                objects.append(Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])))
-            labels = np.where(cl.labels >= 0, cl.labels + base, -1)
-            particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, labels))
+            candidates = [Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))]
+            pred = np.array([tr.position for tr in predicted if tr.target == t.name]).reshape(-1, 3)
+            kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred)
+            remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
+            objects.extend(kept_objects)
+            particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))
         t4 = time.perf_counter()
         timings["clusters"] = 1e3 * (t4 - t3)
         tracks = self.identities.update(objects, now)

@@ -1,0 +1,162 @@
+"""Objects must explain colour blobs: drop stereo ghosts and duplicates, refine positions.
+
+With several balls of one colour, the particle filter also finds *ghosts*:
+points whose projection lands on ball A in one camera and on ball B in the
+other (the same ambiguity that makes epipolar matching of same-coloured
+blobs fail). Eq. 14 scores a ghost as high as a ball. This stage looks at
+which blob each object projects into in every camera and how large that blob
+is compared with a ball of the known radius at the object's depth:
+
+- clusters that see the same blob in every camera are merged (EM cuts one
+  ball's depth-elongated particle cloud into pieces);
+- objects are ranked by mass x size consistency (a ghost sits at the wrong
+  depth, so its expected apparent size disagrees with its blobs), with a
+  bonus for lying where a confirmed track predicts a ball;
+- in that order an object is kept if it explains at least one blob that no
+  kept object explains yet; otherwise every blob it sees is already
+  accounted for (a ghost or a duplicate cluster) and it is dropped;
+- a kept object that alone explains a blob of consistent size in every
+  camera gets the triangulated blob centroids as its position (the particle
+  mean is biased by the shape of the ball's likelihood plateau; centroids
+  are not). Otherwise (occlusion, merged blobs) it keeps the particle mean.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+
+from .abduction import Blobs
+from .camera import Camera, triangulate_points
+from .results import Object3D
+
+
+@dataclass(frozen=True)
+class ExplainSettings:
+    radius: float  # ball radius, metres
+    size_tolerance: float = 0.3  # sigma of log(blob radius / expected radius) in the ranking
+    refine_tolerance: float = 0.3  # |log size ratio| below this in every camera allows refinement
+    refine: bool = True
+    track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
+
+
+def _blob_of(cam: Camera, blobs: Blobs, position: np.ndarray, r_px: float) -> int:
+    """Index of the blob the object's projection falls in (or the nearest within one apparent radius), else -1."""
+    uv, ok = cam.project(position[None])
+    if not ok[0] or len(blobs) == 0:
+        return -1
+    u, v = uv[0]
+    if blobs.labels is not None and 0 <= u < cam.width and 0 <= v < cam.height:
+        b = int(blobs.label_blob[blobs.labels[int(v), int(u)]])
+        if b >= 0:
+            return b
+    d = np.linalg.norm(blobs.centres - uv[0], axis=1)
+    i = int(np.argmin(d))
+    return i if d[i] <= max(r_px, 3.0) + blobs.radii[i] else -1
+
+
+def _merge(objs: Sequence[Object3D]) -> Object3D:
+    """One object from clusters that see the same blobs: mass-weighted mixture of them."""
+    if len(objs) == 1:
+        return objs[0]
+    m = np.array([o.mass for o in objs])
+    mu = np.array([o.position for o in objs])
+    mean = (m[:, None] * mu).sum(0) / m.sum()
+    d = mu - mean
+    cov = sum(mi * (o.covariance + np.outer(di, di)) for mi, o, di in zip(m, objs, d)) / m.sum()
+    return Object3D(objs[0].target, mean, cov, float(m.sum()), int(sum(o.n_particles for o in objs)))
+
+
+def _signature(obj: Object3D, cameras, blobs, radius) -> tuple[tuple[int, ...], np.ndarray]:
+    ids, log_ratio = [], []
+    for cam, b in zip(cameras, blobs):
+        z = cam.depth(obj.position[None])[0]
+        if z <= 0:
+            ids.append(-1)
+            log_ratio.append(np.nan)
+            continue
+        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / z
+        k = _blob_of(cam, b, obj.position, r_px)
+        ids.append(k)
+        log_ratio.append(np.log(max(b.radii[k], 0.5) / r_px) if k >= 0 and np.isfinite(b.radii[k]) else np.nan)
+    return tuple(ids), np.array(log_ratio)
+
+
+def explain(
+    objects: Sequence[Object3D],
+    cameras: Sequence[Camera],
+    blobs: Sequence[Blobs],
+    settings: ExplainSettings,
+    predicted: np.ndarray | None = None,
+) -> tuple[list[Object3D], np.ndarray]:
+    """Keep the objects that explain blobs.
+
+    Returns (kept objects, index of the kept object each input object went
+    into, or -1 if it was dropped).
+    """
+    into = np.full(len(objects), -1)
+    if not objects:
+        return [], into
+    # Clusters that see the same blob in every camera are one ball whose cloud EM cut in pieces.
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for i, obj in enumerate(objects):
+        sig, _ = _signature(obj, cameras, blobs, settings.radius)
+        if any(k >= 0 for k in sig):
+            groups.setdefault(sig, []).append(i)
+    sigs = list(groups)
+    merged = [_merge([objects[i] for i in groups[g]]) for g in sigs]
+    if not merged:
+        return [], into
+    log_ratio = np.array([_signature(o, cameras, blobs, settings.radius)[1] for o in merged])
+    blob_ids = np.array(sigs)
+    consistency = np.exp(-0.5 * np.nansum((log_ratio / settings.size_tolerance) ** 2, axis=1))
+    score = np.array([o.mass for o in merged]) * np.maximum(consistency, 1e-3)
+    if predicted is not None and len(predicted):
+        pos = np.array([o.position for o in merged])
+        near = (np.linalg.norm(pos[:, None] - predicted[None], axis=2) < 2 * settings.radius).any(axis=1)
+        score = np.where(near, score * settings.track_bonus, score)
+    c = len(cameras)
+    used: set[tuple[int, int]] = set()
+    kept: list[int] = []
+    for i in np.argsort(-score, kind="stable"):
+        seen = {(j, int(blob_ids[i, j])) for j in range(c) if blob_ids[i, j] >= 0}
+        if seen <= used:
+            continue  # every blob it sees belongs to a stronger object: a stereo ghost
+        used |= seen
+        kept.append(int(i))
+    kept.sort()
+    out = []
+    for n_out, i in enumerate(kept):
+        obj = merged[i]
+        if settings.refine:
+            obj = _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings)
+        out.append(obj)
+        into[groups[sigs[i]]] = n_out
+    return out, into
+
+
+def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings) -> Object3D:
+    """Blob centroids where they belong to this ball alone and have its size; else the particles' word."""
+    others = [k for k in kept if k != i]
+    good = []
+    for j in range(len(cameras)):
+        b = blob_ids[i, j]
+        if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
+            continue  # unseen, clipped, occluded or merged with another ball in this camera
+        if any(blob_ids[k, j] == b for k in others):
+            continue  # a blob shared with another ball: its centroid is of neither
+        good.append(j)
+    if len(good) >= 2:
+        point = triangulate_points([cameras[j] for j in good], [blobs[j].centres[blob_ids[i, j]][None] for j in good])[0]
+    elif len(good) == 1:
+        # One clean view: its ray fixes the direction, the particles the distance along it.
+        j = good[0]
+        o, d = cameras[j].rays(blobs[j].centres[blob_ids[i, j]][None])
+        point = o[0] + d[0] * float((obj.position - o[0]) @ d[0])
+    else:
+        return obj
+    if np.linalg.norm(point - obj.position) > 3 * settings.radius:
+        return obj  # the blobs disagree with the particles: trust the particles
+    return replace(obj, position=point)
