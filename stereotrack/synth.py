@@ -247,12 +247,13 @@ class SceneRenderer:
                 if k == len(sub_positions) // 2:
                     seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(spec.balls))[: len(spec.balls)]
                     visible += seen > 0
-            img = acc * (gain / n_sub) if (n_sub > 1 or gain != 1.0) else acc
+            # gain * mean of sub-frames + noise, saturated to uint8, in one OpenCV pass.
             if self._noise is not None:
-                size = img.size
-                start = int(rng.integers(0, len(self._noise) - size))
-                img += self._noise[start : start + size].reshape(img.shape)
-            out = np.clip(img, 0, 255).astype(np.uint8)
+                start = int(rng.integers(0, len(self._noise) - acc.size))
+                noise = self._noise[start : start + acc.size].reshape(acc.shape)
+                out = cv2.addWeighted(acc, gain / n_sub, noise, 1.0, 0.0, dtype=cv2.CV_8U)
+            else:
+                out = cv2.addWeighted(acc, gain / n_sub, acc, 0.0, 0.0, dtype=cv2.CV_8U)
             if spec.jpeg_quality > 0:
                 ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(spec.jpeg_quality)])
                 out = cv2.imdecode(buf, cv2.IMREAD_COLOR)

@@ -254,3 +254,20 @@ def test_committed_demo_calibration_is_the_pendulum4_rig():
     assert np.allclose((rig[0].centre + rig[1].centre) / 2, 0) and rig[0].centre[0] < rig[1].centre[0]
     uv, _ = rig[0].project(np.array([[0.0, 1.5, 0.0], [0.0, 1.5, 0.2]]))
     assert np.allclose(uv[0], rig[0].K[:2, 2]) and uv[1, 1] < uv[0, 1]  # the aim point at the image centre; up is up
+
+
+def test_readme_scene_examples_load_and_render(tmp_path):
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    section = readme.split("<!-- section: synth -->")[1].split("<!-- /section: synth -->")[0]
+    blocks = [b.split("```")[0] for b in section.split("```yaml\n")[1:]]
+    assert len(blocks) == 2
+    for i, block in enumerate(blocks):
+        path = tmp_path / f"scene{i}.yaml"
+        path.write_text(block)
+        spec = load_scene_yaml(path)
+        renderer = SceneRenderer(spec)
+        images, truth = renderer.render(0)
+        assert len(images) == 2 and truth
+    assert len(spec.balls) == 4 and len(spec.occluders) == 1 and [t.name for t in spec.targets()] == ["pink", "orange"]
