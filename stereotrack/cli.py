@@ -21,6 +21,8 @@ COMMANDS: list[str] = [
     "cameras",
     "live",
     "synth",
+    "board",
+    "calibrate",
 ]
 
 

@@ -1,0 +1,61 @@
+"""Write a printable calibration board at its true physical size, then re-detect it as a self-check.
+
+The board is described by a small YAML file (see calib/board.yaml):
+
+  type: charuco            # or chessboard
+  squares: [7, 5]          # squares across, squares down (count squares, not corners)
+  square: 0.03             # side of one square, metres
+  marker: 0.022            # charuco: side of one marker, metres
+  dictionary: DICT_5X5_100 # charuco: ArUco dictionary
+
+The PNG carries its dpi, and the settings are printed below the board. Print
+it at 100% scale ("actual size", no "fit to page"), then measure a few squares
+with a ruler: if they are not the stated size, write the measured size into
+'square' (and scale 'marker' alike) before calibrating.
+
+examples:
+  stereotrack board calib/board.yaml --out board.png --dpi 300
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "write a printable calibration board (PNG at true size) and check that it is detected"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("board", metavar="BOARD_YAML", help="board description (e.g. calib/board.yaml)")
+    parser.add_argument("--out", default="board.png", metavar="PNG", help="image to write (default board.png)")
+    parser.add_argument("--dpi", type=float, default=300.0, help="printer resolution in dots per inch (default 300)")
+
+
+def run(args: argparse.Namespace) -> int:
+    import cv2
+
+    from ..boards import BoardDetector, load_board, printable, write_png_with_dpi
+    from ..errors import StereotrackError
+
+    if not 50 <= args.dpi <= 2400:
+        raise StereotrackError(f"--dpi must be between 50 and 2400, got {args.dpi:g}")
+    if not str(args.out).lower().endswith(".png"):
+        raise StereotrackError(f"--out must be a .png file (it stores the dpi for printing), got {args.out}")
+    board = load_board(args.board)
+    page = printable(board, args.dpi)
+    write_png_with_dpi(args.out, page.image, args.dpi)
+
+    # Self-check: read the file back and find every corner, at a camera-like resolution.
+    img = cv2.imread(str(args.out), cv2.IMREAD_GRAYSCALE)
+    scale = min(1.0, 1600 / max(img.shape))
+    small = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) if scale < 1 else img
+    det = BoardDetector(board).detect(small)
+    found = 0 if det is None else len(det)
+    h_mm, w_mm = (25.4 * n / args.dpi for n in img.shape)
+    print(f"wrote {args.out}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {args.dpi:g} dpi; "
+          f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm")
+    if found != board.n_corners:
+        raise StereotrackError(f"self-check failed: only {found} of {board.n_corners} corners were found in {args.out}; "
+                               f"use a larger --dpi or larger squares")
+    print(f"self-check: all {found} corners found in the written image")
+    print("print at 100% scale (no 'fit to page') and check a few squares with a ruler")
+    return 0
