@@ -429,11 +429,13 @@ def render_scene(spec: SceneSpec, out_folder: str | Path, progress: bool = True,
     return out
 
 
-def ensure_demo_recording(root: str | Path) -> Path:
+def ensure_demo_recording(root: str | Path, codec: str = "mjpg") -> Path:
     """``root/recordings/demo``: rendered from ``pendulum4`` (10 s at 30 fps) unless already complete.
 
     Renders into a temporary folder and renames it into place, so an
-    interrupted render never leaves a half demo behind.
+    interrupted render never leaves a half demo behind. MJPG by default, like
+    a webcam: 9 MB instead of 250 MB of lossless FFV1 (sensor noise does not
+    compress), and the target colours still cover 99% of the ball pixels.
     """
     from .scenes import make_preset
 
@@ -445,7 +447,7 @@ def ensure_demo_recording(root: str | Path) -> Path:
     tmp = root / "recordings" / f".demo-partial-{os.getpid()}"
     if tmp.exists():
         shutil.rmtree(tmp)
-    render_scene(spec, tmp, progress=True)
+    render_scene(spec, tmp, progress=True, codec=codec)
     if demo.exists():
         shutil.rmtree(demo)
     os.replace(tmp, demo)

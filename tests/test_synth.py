@@ -231,12 +231,15 @@ def test_demo_recording_is_rendered_once_and_atomically(tmp_path, monkeypatch):
     monkeypatch.setattr(scenes, "make_preset", lambda name, **kw: real(name, **dict(kw, n_frames=4, width=160, height=120)))
     demo = ensure_demo_recording(tmp_path)
     assert demo == tmp_path / "recordings" / "demo" and open_recording(demo).n_frames == 4
-    stamp = (demo / "cam0.mkv").stat().st_mtime_ns
-    assert ensure_demo_recording(tmp_path) == demo and (demo / "cam0.mkv").stat().st_mtime_ns == stamp
+    stamp = (demo / "cam0.avi").stat().st_mtime_ns
+    assert ensure_demo_recording(tmp_path) == demo and (demo / "cam0.avi").stat().st_mtime_ns == stamp
     (demo / "frames.csv").write_text("frame,t_cam0,t_cam1\n0,0,0\n")  # a damaged demo is rendered again
     ensure_demo_recording(tmp_path)
     assert open_recording(demo).n_frames == 4
     assert [p.name for p in (tmp_path / "recordings").iterdir()] == ["demo"]
+    again = ensure_demo_recording(tmp_path / "elsewhere")  # deterministic: the same files anywhere
+    for name in ("truth.csv", "frames.csv", "calib.yaml", "config.yaml", "cam0.avi", "cam1.avi"):
+        assert (again / name).read_bytes() == (demo / name).read_bytes(), name
 
 
 def test_committed_demo_calibration_is_the_pendulum4_rig():
