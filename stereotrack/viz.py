@@ -115,22 +115,29 @@ def with_alpha(rgb: np.ndarray, alpha: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------- blueprint
 
 
-def default_blueprint(camera_names: list[str], with_truth: bool = False) -> Any:
+def default_blueprint(rig: Rig, with_truth: bool = False) -> Any:
     """3D view with the cameras, one 2D view per camera, and the time-series panels."""
     import rerun.blueprint as rrb
 
-    cams = [rrb.Spatial2DView(origin=f"world/cameras/{n}", name=n) for n in camera_names]
+    # Look over the cameras' shoulders at the space in front of them.
+    centre = np.mean([c.centre for c in rig.cameras], axis=0)
+    forward = np.mean([c.R[2] for c in rig.cameras], axis=0)
+    up = -np.mean([c.R[1] for c in rig.cameras], axis=0)
+    forward, up = forward / np.linalg.norm(forward), up / np.linalg.norm(up)
+    eye = rrb.EyeControls3D(position=centre - 0.9 * forward + 0.6 * up, look_target=centre + 1.5 * forward, eye_up=up)
+    cams = [rrb.Spatial2DView(origin=f"world/cameras/{c.name}", name=c.name) for c in rig.cameras]
     series = [
-        rrb.TimeSeriesView(origin="stats/counts", name="particles per track, objects, tracks"),
+        rrb.TimeSeriesView(origin="stats/counts/particles", name="particles per track"),
+        rrb.TimeSeriesView(origin="stats/counts/objects", contents=["$origin/**", "stats/counts/confirmed_tracks"], name="objects in view, confirmed tracks"),
         rrb.TimeSeriesView(origin="stats/timing_ms", name="per-stage ms"),
-        rrb.TimeSeriesView(origin="stats/rate", name="frames/s and latency ms"),
+        rrb.TimeSeriesView(origin="stats/rate", name="frames/s, latency ms"),
     ]
     if with_truth:
         series.append(rrb.TimeSeriesView(origin="stats/error_mm", name="3D error vs truth, mm"))
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Spatial3DView(origin="world", name="3D: cameras, particles, tracks"),
+                rrb.Spatial3DView(origin="world", name="3D: cameras, particles, tracks", eye_controls=eye),
                 rrb.Horizontal(*cams),
                 row_shares=[3, 2],
             ),
@@ -249,7 +256,7 @@ class RerunSink:
         self.rec = rr.RecordingStream(APPLICATION_ID)
         if recording_name:
             self.rec.send_recording_name(recording_name)
-        self.blueprint = default_blueprint(rig.names, with_truth=self._truth is not None)
+        self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
         self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
         self._log_static()
 
