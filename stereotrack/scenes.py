@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from .errors import StereotrackError
-from .synth import COLOURS, BallSpec, Lighting, Occluder, RigSpec, SceneSpec
+from .synth import BallSpec, colour_bgr, Lighting, Occluder, RigSpec, SceneSpec
 from .trajectories import TRAJECTORIES, Ballistic, Line, Pendulum, Samples, Static
 
 _RIG_KEYS = {f.name for f in dataclasses.fields(RigSpec)}
@@ -207,8 +207,10 @@ def _ball(d: Any, i: int, path) -> BallSpec:
     if ball.get("disappear") is None:
         ball.pop("disappear", None)
     spec = _build(BallSpec, ball, where, path)
-    if spec.colour not in COLOURS:
-        raise StereotrackError(f"{path}: '{where}.colour': expected one of {', '.join(COLOURS)}, got {spec.colour!r}")
+    try:
+        colour_bgr(spec.colour)
+    except StereotrackError as exc:
+        raise StereotrackError(f"{path}: '{where}.colour': {exc}") from None
     return spec
 
 

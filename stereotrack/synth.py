@@ -68,14 +68,30 @@ class RigSpec:
 @dataclass(frozen=True)
 class BallSpec:
     trajectory: Any  # a trajectory from trajectories.py
-    colour: str = "pink"  # a name in COLOURS (the target's name)
+    colour: str | tuple[int, int, int] = "pink"  # a name in COLOURS, or a BGR albedo (0..255 each)
     radius: float = 0.035  # metres
     appear: float = 0.0  # seconds: in the scene from this time ...
     disappear: float = float("inf")  # ... until this time
 
     @property
     def bgr(self) -> np.ndarray:
-        return np.asarray(COLOURS[self.colour], np.float32)
+        return np.asarray(colour_bgr(self.colour), np.float32)
+
+    @property
+    def target_name(self) -> str:
+        """The target this ball belongs to: its colour's name, or ``bgr_B_G_R``."""
+        return self.colour if isinstance(self.colour, str) else "bgr_" + "_".join(str(int(c)) for c in self.colour)
+
+
+def colour_bgr(colour: str | Sequence[int]) -> tuple[int, int, int]:
+    if isinstance(colour, str):
+        if colour not in COLOURS:
+            raise StereotrackError(f"unknown ball colour {colour!r}: use one of {', '.join(COLOURS)} or a [B, G, R] triple")
+        return COLOURS[colour]
+    bgr = tuple(int(c) for c in colour)
+    if len(bgr) != 3 or not all(0 <= c <= 255 for c in bgr):
+        raise StereotrackError(f"ball colour {list(colour)!r}: expected a colour name or [B, G, R] with values 0..255")
+    return bgr
 
 
 @dataclass(frozen=True)
@@ -121,17 +137,17 @@ class SceneSpec:
         """One target per ball colour with an HSV range that covers the rendered balls."""
         out = {}
         for b in self.balls:
-            if b.colour not in out:
-                out[b.colour] = target_for_colour(b.colour, b.radius, self.lighting)
+            if b.target_name not in out:
+                out[b.target_name] = target_for_colour(b.target_name, b.bgr, b.radius, self.lighting)
         return tuple(out.values())
 
     def config(self) -> Config:
         return Config(targets=self.targets())
 
 
-def target_for_colour(name: str, radius: float, lighting: Lighting) -> Target:
+def target_for_colour(name: str, bgr: Sequence[float], radius: float, lighting: Lighting) -> Target:
     """An OpenCV HSV range around a ball colour: its hue +-10, the shaded side included, highlights left out."""
-    bgr = np.asarray(COLOURS[name], np.uint8).reshape(1, 1, 3)
+    bgr = np.asarray(bgr, np.uint8).reshape(1, 1, 3)
     h, s, v = (int(x) for x in cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)[0, 0])
     darkest = v * lighting.ambient * (1.0 - lighting.flicker)
     return Target(
@@ -203,7 +219,7 @@ class SceneRenderer:
         rng = np.random.default_rng(spec.seed)
         light = np.asarray(spec.lighting.direction, float)
         self._light = (light / np.linalg.norm(light)).astype(np.float32)
-        hue = int(cv2.cvtColor(np.uint8([[COLOURS[spec.balls[0].colour]]]), cv2.COLOR_BGR2HSV)[0, 0, 0]) if spec.balls else 0
+        hue = int(cv2.cvtColor(spec.balls[0].bgr.astype(np.uint8)[None, None], cv2.COLOR_BGR2HSV)[0, 0, 0]) if spec.balls else 0
         w, h = spec.rig.width, spec.rig.height
         uu, vv = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
         pixels = np.column_stack([uu.ravel(), vv.ravel()])

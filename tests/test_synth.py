@@ -1,3 +1,5 @@
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -274,3 +276,24 @@ def test_readme_scene_examples_load_and_render(tmp_path):
         images, truth = renderer.render(0)
         assert len(images) == 2 and truth
     assert len(spec.balls) == 4 and len(spec.occluders) == 1 and [t.name for t in spec.targets()] == ["pink", "orange"]
+
+
+def test_motion_blur_smears_a_fast_ball_along_its_motion():
+    from stereotrack.trajectories import Line
+
+    fast = Line((-0.6, 1.5, 0.0), (0.6, 1.5, 0.0), period=0.8)  # 3 m/s across the image
+    widths = {}
+    for blur in (1, 8):
+        spec = SceneSpec("b", (BallSpec(fast, colour=(40, 200, 40)),), RigSpec(width=320, height=240), n_frames=4, noise=0.0, blur=blur, exposure=1.0)
+        renderer = SceneRenderer(spec)
+        images, truth = renderer.render(3)
+        # Where the image differs from the empty background: the ball and its streak.
+        diff = np.abs(images[0].astype(int) - SceneRenderer(dataclasses.replace(spec, balls=())).render(3)[0][0].astype(int)).sum(axis=2) > 6
+        ys, xs = np.nonzero(diff)
+        widths[blur] = (xs.max() - xs.min(), ys.max() - ys.min())
+        uv, _ = renderer.rig.cameras[0].project(np.array(truth[0][1:4])[None])
+        assert abs(xs.mean() - uv[0, 0]) < 1.0  # the streak is centred on the mid-exposure position
+    # 3 m/s for 1/30 s is 0.1 m, about 18 px at 1.5 m (f = 277 px): the streak is that much longer, no taller.
+    assert widths[8][0] - widths[1][0] == pytest.approx(18, abs=3)
+    assert abs(widths[8][1] - widths[1][1]) <= 1
+    assert spec.targets()[0].name == "bgr_40_200_40"
