@@ -84,7 +84,7 @@ def track(recording: Path, method: str, out_csv: Path) -> dict:
     seconds = time.perf_counter() - start
     log = err.getvalue()
     if code != 0:
-        raise SystemExit(f"stereotrack track {recording} --method {method} failed ({code}):\n{log}")
+        raise RuntimeError(f"stereotrack track --method {method} failed (exit {code}): {log.strip().splitlines()[-1] if log.strip() else ''}")
     frames = re.search(r"tracked (\d+) frames", log)
     step = re.search(r"tracker step median ([\d.]+) ms", log)
     return {
@@ -137,6 +137,9 @@ def report(results: dict, args) -> str:
             r = res.get(method)
             if r is None:
                 continue
+            if "error" in r:
+                lines.append(f"| {label} | | {method} | failed: {r['error']} |" + " |" * 7)
+                continue
             e = r["eval"]
             fps = r["run"]["frames"] / r["run"]["seconds"] if r["run"]["seconds"] > 0 else float("nan")
             lines.append(
@@ -146,13 +149,13 @@ def report(results: dict, args) -> str:
     lines += ["", "## Against the issue's targets", ""]
     for label, rules in TARGETS.items():
         r = results.get(label, {}).get("particles")
-        if r is None:
+        if r is None or "error" in r:
             continue
         checks = ", ".join(f"{k} {r['eval'][k]:.3f}".rstrip("0").rstrip(".") + " " + _check(r["eval"][k], rule) for k, rule in rules.items())
         lines.append(f"- {label} (particles): {checks}")
     for label in BEAT_BASELINE:
         res = results.get(label, {})
-        if "particles" in res and "baseline" in res:
+        if all("eval" in res.get(m, {}) for m in METHODS):
             p, b = res["particles"]["eval"]["mota"], res["baseline"]["eval"]["mota"]
             lines.append(f"- {label}: particles MOTA {p:.3f} vs baseline {b:.3f}: {'particles ahead' if p > b else 'baseline ahead or equal'}")
     if args.frames:
@@ -183,7 +186,12 @@ def main() -> None:
         for method in args.methods:
             print(f"{label}: tracking with {method} ...", flush=True)
             csv = folder / f"tracks_{method}.csv"
-            run = track(folder, method, csv)
+            try:
+                run = track(folder, method, csv)
+            except RuntimeError as exc:  # one broken run must not lose the others
+                print(f"  {exc}", flush=True)
+                res[method] = {"error": str(exc)}
+                continue
             res["frames"] = run["frames"]
             res[method] = {"run": run, "eval": score(csv, folder, run["frames"])}
             e = res[method]["eval"]
