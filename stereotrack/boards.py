@@ -227,6 +227,11 @@ def diagnose(board: Board, images: list[np.ndarray]) -> str | None:
             msg = _diagnose_charuco(board, grey)
             if msg:
                 return msg
+        else:  # markers first: a ChArUco board also contains chessboard-like patches
+            name, count = _best_dictionary(grey)
+            if name:
+                return (f"found {count} ArUco markers ({name.split('_')[1]} family, e.g. {name}): this looks like a ChArUco board but board.yaml says chessboard; "
+                        f"set type: charuco and its dictionary, marker and square sizes")
         found = _chessboard_any_size(grey)
         if found is not None:
             inner = found
@@ -237,11 +242,6 @@ def diagnose(board: Board, images: list[np.ndarray]) -> str | None:
             if sorted(inner) != sorted(board.inner):
                 return (f"found a chessboard with {squares[0]}x{squares[1]} squares ({inner[0]}x{inner[1]} inner corners) "
                         f"but board.yaml says squares: [{board.squares[0]}, {board.squares[1]}]: fix 'squares' in board.yaml (count squares, not corners)")
-        if board.type == "chessboard":
-            name, count = _best_dictionary(grey)
-            if name:
-                return (f"found {count} ArUco markers ({name.split('_')[1]} family, e.g. {name}): this looks like a ChArUco board but board.yaml says chessboard; "
-                    f"set type: charuco and its dictionary, marker and square sizes")
     return None
 
 

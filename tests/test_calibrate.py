@@ -1,0 +1,313 @@
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from stereotrack.boards import Board, flipped, save_board
+from stereotrack.boardsynth import random_board_poses, render_views, write_image_folders
+from stereotrack.calibrate import (
+    CalibrationOptions,
+    ViewSet,
+    calibrate,
+    calibrate_intrinsics,
+    match_image_files,
+    views_from_frames,
+    views_from_images,
+)
+from stereotrack.camera import Camera, Rig, intrinsics_from_fov, load_rig, look_at
+from stereotrack.errors import StereotrackError
+from stereotrack.recording import FramePair, RecordingWriter
+
+REAL = Path(__file__).parent / "data" / "opencv-stereo-chessboard"
+OPENCV_BOARD = Board("chessboard", (10, 7), 1.0)  # 9 x 6 inner corners, square 1 (OpenCV's test)
+CHESS = Board("chessboard", (9, 7), 0.03)
+CHARUCO = Board("charuco", (7, 5), 0.04, 0.03, "DICT_5X5_100")
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "stereotrack", *map(str, args)], capture_output=True, text=True)
+
+
+# --------------------------------------------------------------------------- real data, published references
+
+
+@pytest.fixture(scope="module")
+def real_views():
+    # OpenCV's test refines corners in an 11 x 11 window: half-size 5
+    return views_from_images(OPENCV_BOARD, [str(REAL / "left*.jpg"), str(REAL / "right*.jpg")], subpix_window=5, progress=False)
+
+
+def test_real_images_are_paired_by_name(real_views):
+    assert real_views.view_names == ("01", "02", "03", "04", "05", "06", "07", "08", "09", "11", "12", "13", "14")
+    assert all(d is not None for row in real_views.detections for d in row)
+
+
+def test_real_left_camera_rms_matches_opencv_test(real_views):
+    left = [row[0] for row in real_views.detections]
+    rms, K, dist, per_view, _ = calibrate_intrinsics(OPENCV_BOARD, left, (640, 480), flags=0)
+    assert abs(rms - 0.196334638) < 0.01
+
+
+def test_real_left_focal_with_fixed_aspect_matches_reference():
+    # left_intrinsics.yml came from OpenCV's calibration sample: fixed aspect ratio, 23 x 23 refinement window
+    views = views_from_images(OPENCV_BOARD, [str(REAL / "left*.jpg"), str(REAL / "right*.jpg")], subpix_window=11, progress=False)
+    rms, K, *_ = calibrate_intrinsics(OPENCV_BOARD, [row[0] for row in views.detections], (640, 480), flags=cv2.CALIB_FIX_ASPECT_RATIO)
+    assert K[0, 0] == K[1, 1]
+    assert abs(K[0, 0] - 535.916) < 3.0
+    # our default window (a quarter of the corner spacing) also lands within 3 px, and within 1 px of Caltech's 533.5
+    views = views_from_images(OPENCV_BOARD, [str(REAL / "left*.jpg"), str(REAL / "right*.jpg")], progress=False)
+    rms_default, K, *_ = calibrate_intrinsics(OPENCV_BOARD, [row[0] for row in views.detections], (640, 480), flags=cv2.CALIB_FIX_ASPECT_RATIO)
+    assert abs(K[0, 0] - 535.916) < 3.0 and abs(K[0, 0] - 533.5) < 1.0
+    assert rms_default < rms  # the smaller window fits the corners better
+
+
+def test_real_stereo_baseline_and_right_focal():
+    views = views_from_images(OPENCV_BOARD, [str(REAL / "left*.jpg"), str(REAL / "right*.jpg")], progress=False)
+    cal = calibrate(views, OPENCV_BOARD)
+    baseline = cal.rig.baseline()  # in square lengths (square = 1)
+    # target 3.33-3.35 read to two decimals; Caltech's own T gives 99.81 / 30 = 3.327
+    assert 3.325 <= baseline <= 3.35
+    right = cal.rig[1].K
+    assert abs(right[0, 0] / 536.7 - 1) < 0.015 and abs(right[1, 1] / 536.7 - 1) < 0.015
+    r = cal.report
+    assert r["verdict"] == "good" and r["pairs"][0]["epipolar_mean_px"] < 0.3
+    assert cal.rig.quality["views_used"] == 13 and set(cal.rig.quality["per_camera_rms_px"]) == {"cam0", "cam1"}
+
+
+# --------------------------------------------------------------------------- rendered boards, known rig
+
+
+def truth_rig() -> Rig:
+    K0 = intrinsics_from_fov(640, 480, 62)
+    K0[0, 2], K0[1, 2] = 325.0, 236.0
+    K1 = K0.copy()
+    K1[0, 0] *= 1.02
+    K1[1, 1] *= 1.02
+    K1[0, 2] = 315.0
+    dist = np.array([-0.12, 0.04, 0.0008, -0.0005, 0.0])
+    cams = []
+    for i, (eye, target, K) in enumerate([((-0.06, 0, 0), (0, 0, 1.0), K0), ((0.06, 0.005, 0.01), (0.02, 0, 1.0), K1)]):
+        R, t = look_at(eye, target)
+        cams.append(Camera(f"cam{i}", (640, 480), K, dist, R, t))
+    return Rig(tuple(cams))
+
+
+def as_pairs(views):
+    return [FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in v), (i / 30, i / 30)) for i, v in enumerate(views)]
+
+
+@pytest.fixture(scope="module")
+def rendered():
+    rig = truth_rig()
+    out = {}
+    for seed, board in enumerate((CHESS, CHARUCO)):
+        rng = np.random.default_rng(10 + seed)
+        poses = random_board_poses(rig, board, 20, rng)
+        images = render_views(rig, board, poses, rng)
+        out[board.type] = (rig, board, images, views_from_frames(board, as_pairs(images), rig.names, min_new=0.0, progress=False))
+    return out
+
+
+def rig_errors(truth: Rig, est: Rig):
+    f = [abs(e.K[k, k] / t.K[k, k] - 1) for t, e in zip(truth.cameras, est.cameras) for k in (0, 1)]
+    pp = [np.abs(e.K[:2, 2] - t.K[:2, 2]).max() for t, e in zip(truth.cameras, est.cameras)]
+    base = abs(est.baseline() / truth.baseline() - 1)
+    dR = (est[1].R @ est[0].R.T) @ (truth[1].R @ truth[0].R.T).T
+    rot = np.degrees(np.linalg.norm(cv2.Rodrigues(dR)[0]))
+    return max(f), max(pp), base, rot
+
+
+@pytest.mark.parametrize("kind", ["chessboard", "charuco"])
+def test_rendered_boards_meet_targets(rendered, kind):
+    rig, board, _, views = rendered[kind]
+    assert views.n_views == 20
+    cal = calibrate(views, board)
+    f, pp, base, rot = rig_errors(rig, cal.rig)
+    assert f < 0.005 and pp < 2.0 and base < 0.005 and rot < 0.2
+    assert cal.report["rms_px"] < 0.2 and cal.report["epipolar_mean_px"] < 0.15
+    assert cal.rig.world == "cam0" and np.allclose(cal.rig[0].R, np.eye(3)) and np.allclose(cal.rig[0].t, 0)
+    refined = calibrate(views, board, CalibrationOptions(refine=True))
+    f, pp, base, rot = rig_errors(rig, refined.rig)
+    assert f < 0.005 and pp < 2.0 and base < 0.005 and rot < 0.2
+
+
+def test_chessboard_numbered_from_opposite_ends_is_relabelled(rendered):
+    rig, board, _, views = rendered["chessboard"]
+    dets = [list(row) for row in views.detections]
+    turned = [1, 4, 7, 12]
+    for v in turned:
+        dets[v][1] = flipped(board, dets[v][1])
+    cal = calibrate(ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(map(tuple, dets))), board)
+    assert cal.report["pairs"][0]["relabelled_views"] in (len(turned), 20 - len(turned))
+    f, pp, base, rot = rig_errors(rig, cal.rig)
+    assert base < 0.005 and rot < 0.2
+
+
+def test_worst_view_is_named_and_can_be_dropped(rendered):
+    rig, board, _, views = rendered["charuco"]
+    rng = np.random.default_rng(7)
+    dets = [list(row) for row in views.detections]
+    bad = dets[5][0]
+    dets[5][0] = type(bad)(bad.ids, bad.corners + rng.normal(0, 2.0, bad.corners.shape))  # a blurred, jittery view
+    noisy = ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(map(tuple, dets)))
+    first = calibrate(noisy, board)
+    worst = first.report["views"]["ranked"][0]
+    assert worst["view"] == views.view_names[5] and worst["outlier"]
+    assert any("--drop-worst 1" in r for r in first.report["reasons"])
+    second = calibrate(noisy, board, CalibrationOptions(drop_worst=1))
+    assert second.report["views"]["dropped"] == [views.view_names[5]] and second.views.n_views == 19
+    assert second.report["rms_px"] < first.report["rms_px"] / 2
+
+
+def test_world_from_a_board_view_has_z_up(rendered):
+    rig, board, _, views = rendered["charuco"]
+    name = views.view_names[3]
+    cal = calibrate(views, board, CalibrationOptions(world_view=name))
+    assert cal.rig.world == "custom"
+    # the board corners seen in that view triangulate onto z = 0 and the cameras are above it
+    d0, d1 = views.detections[3]
+    common, i0, i1 = np.intersect1d(d0.ids, d1.ids, return_indices=True)
+    from stereotrack.camera import triangulate_points
+
+    X = triangulate_points(cal.rig.cameras, [d0.corners[i0], d1.corners[i1]])
+    assert np.abs(X[:, 2]).max() < 0.002
+    assert np.allclose(X[:, :2], board.object_points()[common][:, :2] * [1, -1], atol=0.003)
+    assert all(cam.centre[2] > 0.3 for cam in cal.rig.cameras)
+    assert abs(cal.rig.baseline() - rig.baseline()) < 0.001
+    with pytest.raises(StereotrackError, match="no such view"):
+        calibrate(views, board, CalibrationOptions(world_view="nope"))
+
+
+# --------------------------------------------------------------------------- the command, three sources
+
+
+def test_calibrate_command_from_image_folders(tmp_path, rendered):
+    rig, board, images, _ = rendered["chessboard"]
+    dirs = write_image_folders(tmp_path / "shots", rig, images[:12])
+    save_board(board, tmp_path / "board.yaml")
+    out = tmp_path / "calib" / "desk.yaml"
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", *dirs, "--out", out, "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert "verdict:" in r.stdout and "baseline" in r.stdout
+    est = load_rig(out)
+    assert est.quality["views_used"] == 12 and est.quality["board"]["type"] == "chessboard"
+    assert abs(est.baseline() / rig.baseline() - 1) < 0.01
+    report = yaml.safe_load((tmp_path / "calib" / "desk.report.yaml").read_text())
+    assert report["verdict"] in ("good", "usable", "redo") and report["reasons"] is not None
+    assert len(report["views"]["ranked"]) == 12 and report["pairs"][0]["baseline_m"] == pytest.approx(rig.baseline(), rel=0.01)
+
+
+def test_calibrate_command_from_recording_samples_new_steady_poses(tmp_path, rendered):
+    rig, board, images, _ = rendered["charuco"]
+    folder = tmp_path / "rec"
+    blank = np.full((480, 640, 3), 120, np.uint8)
+    starts = []
+    with RecordingWriter(folder, rig.names, (640, 480), 30.0) as w:
+        n = 0
+        for k, view in enumerate(images[:10]):
+            starts.append(n)
+            bgr = [cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in view]
+            for _ in range(3):  # the board held still for 3 frames: sampled once
+                w.write(bgr, [n / 30, n / 30])
+                n += 1
+            if k % 3 == 0:  # the board out of view of cam1, then of both
+                w.write([bgr[0], blank], [n / 30, n / 30])
+                w.write([blank, blank], [(n + 1) / 30, (n + 1) / 30])
+                n += 2
+    save_board(board, tmp_path / "board.yaml")
+    out = tmp_path / "rec.yaml"
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--recording", folder, "--out", out, "--no-progress", "--every", "1")
+    assert r.returncode == 0, r.stderr
+    est = load_rig(out)
+    # poses 3 and 8 are within 5% of the image diagonal of pose 1 (mean corner shift 39 and 32 px): not new
+    expected = [f"frame{starts[k]:06d}" for k in (0, 1, 2, 4, 5, 6, 7, 9)]
+    report = yaml.safe_load((tmp_path / "rec.report.yaml").read_text())
+    assert sorted(report["views"]["per_view_rms_px"]) == expected
+    assert est.quality["views_used"] == 8
+    assert abs(est.baseline() / rig.baseline() - 1) < 0.01
+
+
+def test_views_from_live_stream_wait_for_a_steady_board(rendered):
+    rig, board, images, _ = rendered["charuco"]
+    pairs = []
+    distinct = [images[k] for k in (0, 1, 2, 4, 5, 6)]  # pose 3 is close to pose 1 (see the recording test)
+    for view in distinct:
+        moving = [np.roll(im, 6, axis=1) for im in view]  # the board still moving by 6 px a frame: not taken
+        pairs += [moving, view, view]
+    stream = (FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in v), (i / 30, i / 30)) for i, v in enumerate(pairs))
+    views = views_from_frames(board, stream, rig.names, steady_px=2.0, progress=False)
+    # each pose is taken at its first still frame, whose successor confirms it is steady
+    assert views.view_names == tuple(f"frame{3 * k + 1:06d}" for k in range(6))
+    again = (FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in v), (i / 30, i / 30)) for i, v in enumerate(pairs))
+    assert views_from_frames(board, again, rig.names, steady_px=2.0, max_views=4, progress=False).n_views == 4
+    with pytest.raises(StereotrackError, match="no frames"):
+        views_from_frames(board, iter([]), rig.names, progress=False)
+
+
+# --------------------------------------------------------------------------- bad input: one clear line each
+
+
+def one_line_error(r):
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert r.stderr.startswith("error: ") and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    return r.stderr
+
+
+def test_zero_detections_say_what_to_check(tmp_path):
+    blank = np.full((480, 640), 128, np.uint8)
+    for cam in ("a", "b"):
+        (tmp_path / cam).mkdir()
+        for i in range(6):
+            cv2.imwrite(str(tmp_path / cam / f"{i:03d}.png"), blank)
+    save_board(CHESS, tmp_path / "board.yaml")
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", tmp_path / "a", tmp_path / "b", "--out", tmp_path / "x.yaml", "--no-progress")
+    msg = one_line_error(r)
+    assert "was not found in any of 6 images of cam0" in msg and "squares in board.yaml" in msg
+
+
+def test_board_settings_mismatch_reports_what_was_found(rendered):
+    rig, board, images, _ = rendered["chessboard"]
+    wrong = Board("chessboard", (7, 7), 0.03)
+    views = views_from_frames(wrong, as_pairs(images[:2]), rig.names, min_new=0.0, progress=False)
+    with pytest.raises(StereotrackError) as e:
+        calibrate(views, wrong)
+    assert "found a chessboard with 9x7 squares (8x6 inner corners) but board.yaml says squares: [7, 7]" in str(e.value)
+
+
+def test_too_few_views_say_how_many_more(rendered):
+    rig, board, images, views = rendered["charuco"]
+    few = views.without(views.view_names[3:])
+    with pytest.raises(StereotrackError, match=r"found in only 3 of 3 views; need at least 5 \(2 more\)"):
+        calibrate(few, board)
+
+
+def test_cameras_that_never_see_the_board_together(rendered):
+    rig, board, images, views = rendered["charuco"]
+    rows = [(d0, None) if v < 10 else (None, d1) for v, (d0, d1) in enumerate(views.detections)]
+    apart = ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(rows))
+    with pytest.raises(StereotrackError, match="cameras cam0 and cam1 never see the board together"):
+        calibrate(apart, board)
+    rows = [(d0, d1 if v < 3 else None) if v < 10 else (None, d1) for v, (d0, d1) in enumerate(views.detections)]
+    few = ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(rows))
+    with pytest.raises(StereotrackError, match=r"together in only 3 views; need at least 5 \(2 more\)"):
+        calibrate(few, board)
+
+
+def test_images_of_different_sizes_and_unmatched_names(tmp_path, rendered):
+    rig, board, images, _ = rendered["charuco"]
+    dirs = write_image_folders(tmp_path / "s", rig, images[:3])
+    cv2.imwrite(str(dirs[1] / "view002.png"), cv2.resize(images[2][1], (320, 240)))
+    save_board(board, tmp_path / "board.yaml")
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", *dirs, "--out", tmp_path / "x.yaml", "--no-progress")
+    msg = one_line_error(r)
+    assert "view002.png: image is 320x240 but view000.png is 640x480" in msg
+    (tmp_path / "other").mkdir()
+    cv2.imwrite(str(tmp_path / "other" / "zzz.png"), images[0][1])
+    with pytest.raises(StereotrackError, match="no image names match"):
+        match_image_files([str(dirs[0]), str(tmp_path / "other")])
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", dirs[0], "--recording", tmp_path, "--out", tmp_path / "x.yaml")
+    assert "exactly one source of views" in one_line_error(r)
