@@ -311,3 +311,49 @@ def test_images_of_different_sizes_and_unmatched_names(tmp_path, rendered):
         match_image_files([str(dirs[0]), str(tmp_path / "other")])
     r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", dirs[0], "--recording", tmp_path, "--out", tmp_path / "x.yaml")
     assert "exactly one source of views" in one_line_error(r)
+
+
+def test_calibrate_command_from_live_cameras(tmp_path, rendered):
+    # Two video files played as cameras, paced at their frame rate by the live capture threads.
+    rig, board, images, _ = rendered["charuco"]
+    folder = tmp_path / "cams"
+    with RecordingWriter(folder, rig.names, (640, 480), 12.0) as w:
+        n = 0
+        for k in (0, 1, 2, 4, 5, 6, 7, 9):  # distinct poses (3 and 8 are close to 1)
+            bgr = [cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in images[k]]
+            for _ in range(6):  # held still for 0.5 s
+                w.write(bgr, [n / 12, n / 12])
+                n += 1
+    save_board(board, tmp_path / "board.yaml")
+    out = tmp_path / "live.yaml"
+    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--cam0", folder / "cam0.mkv", "--cam1", folder / "cam1.mkv",
+                "--out", out, "--no-progress")
+    assert r.returncode == 0, r.stderr
+    est = load_rig(out)
+    assert 5 <= est.quality["views_used"] <= 8, r.stdout
+    assert abs(est.baseline() / rig.baseline() - 1) < 0.01
+
+
+def test_three_cameras_are_chained_pairwise():
+    K = intrinsics_from_fov(640, 480, 62)
+    dist = np.array([-0.1, 0.03, 0.0, 0.0, 0.0])
+    cams = []
+    for i, x in enumerate((-0.1, 0.0, 0.12)):
+        R, t = look_at((x, 0.01 * i, 0.0), (0.0, 0.0, 1.0))
+        cams.append(Camera(f"cam{i}", (640, 480), K, dist, R, t))
+    rig = Rig(tuple(cams))
+    rng = np.random.default_rng(21)
+    images = render_views(rig, CHARUCO, random_board_poses(rig, CHARUCO, 16, rng), rng)
+    # cam0 sees views 0-11, cam2 views 4-15, cam1 all: cam0-cam2 share 8 views, cam1-cam2 share 12,
+    # so cam2 is linked through cam1
+    seen = [range(0, 12), range(0, 16), range(4, 16)]
+    blank = np.full((480, 640, 3), 120, np.uint8)
+    pairs = [FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) if i in seen[c] else blank for c, im in enumerate(v)), (0.0,) * 3)
+             for i, v in enumerate(images)]
+    views = views_from_frames(CHARUCO, pairs, rig.names, min_new=0.0, progress=False)
+    cal = calibrate(views, CHARUCO)
+    assert [p["cameras"] for p in cal.report["pairs"]] == [["cam0", "cam1"], ["cam1", "cam2"]]
+    for j in (1, 2):
+        assert abs(cal.rig.baseline(0, j) / rig.baseline(0, j) - 1) < 0.01
+        dR = (cal.rig[j].R @ cal.rig[0].R.T) @ (rig[j].R @ rig[0].R.T).T
+        assert np.degrees(np.linalg.norm(cv2.Rodrigues(dR)[0])) < 0.3
