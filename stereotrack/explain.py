@@ -84,6 +84,17 @@ def _signature(obj: Object3D, cameras, blobs, radius) -> tuple[tuple[int, ...], 
     return tuple(ids), np.array(log_ratio)
 
 
+def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainSettings, predicted: np.ndarray | None) -> np.ndarray:
+    """mass x size consistency, with a bonus where a confirmed track predicts a ball."""
+    consistency = np.exp(-0.5 * np.nansum((log_ratio / settings.size_tolerance) ** 2, axis=1))
+    score = np.array([o.mass for o in objects]) * np.maximum(consistency, 1e-3)
+    if predicted is not None and len(predicted):
+        pos = np.array([o.position for o in objects])
+        near = (np.linalg.norm(pos[:, None] - predicted[None], axis=2) < 2 * settings.radius).any(axis=1)
+        score = np.where(near, score * settings.track_bonus, score)
+    return score
+
+
 def explain(
     objects: Sequence[Object3D],
     cameras: Sequence[Camera],
@@ -99,24 +110,23 @@ def explain(
     into = np.full(len(objects), -1)
     if not objects:
         return [], into
-    # Clusters that see the same blob in every camera are one ball whose cloud EM cut in pieces.
+    # Clusters that see the same blobs in every camera are one ball: EM cut its cloud (long along
+    # the viewing direction, longer still where two balls merge into one blob) into pieces.
     groups: dict[tuple[int, ...], list[int]] = {}
     for i, obj in enumerate(objects):
         sig, _ = _signature(obj, cameras, blobs, settings.radius)
         if any(k >= 0 for k in sig):
             groups.setdefault(sig, []).append(i)
-    sigs = list(groups)
-    merged = [_merge([objects[i] for i in groups[g]]) for g in sigs]
+    merged, members, blob_ids = [], [], []
+    for sig, idx in groups.items():
+        merged.append(_merge([objects[i] for i in idx]))
+        members.append(idx)
+        blob_ids.append(sig)
     if not merged:
         return [], into
+    blob_ids = np.array(blob_ids)
     log_ratio = np.array([_signature(o, cameras, blobs, settings.radius)[1] for o in merged])
-    blob_ids = np.array(sigs)
-    consistency = np.exp(-0.5 * np.nansum((log_ratio / settings.size_tolerance) ** 2, axis=1))
-    score = np.array([o.mass for o in merged]) * np.maximum(consistency, 1e-3)
-    if predicted is not None and len(predicted):
-        pos = np.array([o.position for o in merged])
-        near = (np.linalg.norm(pos[:, None] - predicted[None], axis=2) < 2 * settings.radius).any(axis=1)
-        score = np.where(near, score * settings.track_bonus, score)
+    score = _rank(merged, log_ratio, settings, predicted)
     c = len(cameras)
     used: set[tuple[int, int]] = set()
     kept: list[int] = []
@@ -133,7 +143,7 @@ def explain(
         if settings.refine:
             obj = _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings)
         out.append(obj)
-        into[groups[sigs[i]]] = n_out
+        into[members[i]] = n_out
     return out, into
 
 

@@ -50,7 +50,9 @@ def static2(rig: RigSpec, fps: float) -> SceneSpec:
 def static_depths(rig: RigSpec, fps: float, depths: tuple[float, ...] = (0.6, 1.2, 2.0)) -> SceneSpec:
     depths = tuple(float(d) for d in depths)
     n = len(depths)
-    xs = np.linspace(-0.08, 0.08, n) if n > 1 else [0.0]
+    # Spread over bearings (not a fixed lateral offset) so no ball hides another in either view.
+    bearings = np.radians(np.linspace(-12.0, 12.0, n)) if n > 1 else np.zeros(1)
+    xs = [d * np.tan(b) for d, b in zip(depths, bearings)]
     zs = np.linspace(-0.08, 0.08, n) if n > 1 else [0.0]
     balls = tuple(BallSpec(Static((float(x), d, float(z)))) for x, d, z in zip(xs, depths, zs))
     return SceneSpec("static_depths", balls, rig, fps, _n(3.0, fps))
