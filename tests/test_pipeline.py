@@ -1,0 +1,121 @@
+"""The tracker end to end on short rendered scenes: accuracy, detection and appearance figures.
+
+Thresholds are the figures the tracker reaches on these scenes (see the
+closing notes and BENCHMARKS.md); timings live in the benchmark, not here.
+"""
+
+import numpy as np
+import pytest
+
+from stereotrack.config import config_from_dict, config_to_dict
+from stereotrack.errors import StereotrackError
+from stereotrack.evaluate import evaluate
+from stereotrack.pipeline import Tracker
+from stereotrack.recording import FramePair
+from stereotrack.synth import SceneRenderer, make_preset
+
+
+def run_scene(name, n_frames, tracker_overrides=None, **overrides):
+    spec = make_preset(name, n_frames=n_frames, **overrides)
+    renderer = SceneRenderer(spec)
+    data = config_to_dict(spec.config())
+    if tracker_overrides:
+        data.setdefault("tracker", {}).update(tracker_overrides)
+    tracker = Tracker(renderer.rig, config_from_dict(data))
+    track_rows, truth_rows, results = [], [], []
+    for i in range(n_frames):
+        images, truth = renderer.render(i)
+        t = renderer.time(i)
+        res = tracker.step(FramePair(i, tuple(images), tuple(t for _ in images)))
+        results.append(res)
+        track_rows += [[i, t, tr.track_id, *tr.position] for tr in res.confirmed]
+        truth_rows += [[i, row[0], row[1], row[2], row[3]] for row in truth]
+    return np.array(track_rows).reshape(-1, 6), np.array(truth_rows).reshape(-1, 5), results
+
+
+def per_object_errors(tracks, truth, start=0):
+    out = {}
+    for oid in np.unique(truth[:, 1]):
+        errs = []
+        for f, _, x, y, z in truth[(truth[:, 1] == oid) & (truth[:, 0] >= start)]:
+            h = tracks[tracks[:, 0] == f]
+            errs.append(np.linalg.norm(h[:, 3:6] - [x, y, z], axis=1).min() if len(h) else np.inf)
+        out[int(oid)] = np.array(errs)
+    return out
+
+
+def test_static_balls_at_06_12_20_m_within_a_centimetre():
+    tracks, truth, _ = run_scene("static_depths", 24)
+    errors = per_object_errors(tracks, truth, start=6)  # after confirmation
+    depths = {int(o): truth[truth[:, 1] == o][0, 3] for o in np.unique(truth[:, 1])}
+    assert sorted(round(d, 1) for d in depths.values()) == [0.6, 1.2, 2.0]
+    for oid, e in errors.items():
+        assert np.isfinite(e).all(), f"ball at {depths[oid]:.1f} m lost"
+        assert e.mean() < 0.01, f"ball at {depths[oid]:.1f} m: mean error {1000 * e.mean():.1f} mm"
+
+
+def test_pendulum4_detection_and_accuracy():
+    tracks, truth, _ = run_scene("pendulum4", 90)
+    ev = evaluate(tracks, truth[truth[:, 0] >= 5], frames=np.arange(5, 90))
+    assert ev.recall >= 0.9 and ev.precision >= 0.9, ev
+    assert ev.mean_error_mm <= 20.0, ev
+    assert ev.id_switches <= 1, ev
+
+
+def test_appear5_each_ball_tracked_within_10_frames_of_appearing():
+    tracks, truth, _ = run_scene("appear5", 75, interval=0.4)
+    errors = per_object_errors(tracks, truth)
+    for oid, e in errors.items():
+        first_seen = int(truth[truth[:, 1] == oid][0, 0])
+        hit = np.flatnonzero(e < 0.05)
+        assert len(hit), f"ball {oid} never tracked"
+        assert hit[0] <= 10, f"ball {oid} appeared at frame {first_seen} and was tracked {hit[0]} frames later"
+
+
+def test_results_carry_particles_objects_and_timings():
+    _, _, results = run_scene("static2", 6, tracker_overrides={"particles": 500, "alpha": 0.4})
+    res = results[-1]
+    ps = res.particles[0]
+    assert len(ps.positions) == 500 and ps.abductive.sum() == 200
+    assert ps.weights.sum() == pytest.approx(1.0)
+    assert len(res.objects) == 2 and set(ps.labels) <= {-1, 0, 1}
+    assert {"masks", "blobs", "particles", "clusters", "tracks", "step"} <= set(res.timings_ms)
+
+
+@pytest.mark.parametrize(
+    "tracker, message",
+    [
+        ({"alpha": 1.5}, "tracker.alpha"),
+        ({"alpha": -0.1}, "tracker.alpha"),
+        ({"particles": 0}, "tracker.particles"),
+        ({"window": 4}, "tracker.window"),
+        ({"partcles": 10}, "did you mean 'particles'"),
+    ],
+)
+def test_bad_tracker_settings_are_refused(tracker, message):
+    with pytest.raises(StereotrackError, match=message.replace(".", r"\.")):
+        config_from_dict({"targets": [], "tracker": tracker}, "cfg.yaml")
+
+
+@pytest.mark.parametrize(
+    "target, message",
+    [
+        ({"name": "x", "hsv_min": [200, 0, 0], "hsv_max": [10, 255, 255]}, "H in 0..179"),
+        ({"name": "x", "hsv_min": [10, 200, 0], "hsv_max": [20, 100, 255]}, "must not exceed"),
+        ({"name": "x", "hsv_min": [10, 0], "hsv_max": [20, 100, 255]}, r"expected \[H, S, V\]"),
+        ({"name": "x", "hsv_min": [10, 0, 0]}, "hsv_max"),
+    ],
+)
+def test_bad_hsv_ranges_are_refused(target, message):
+    with pytest.raises(StereotrackError, match=message):
+        config_from_dict({"targets": [target]}, "cfg.yaml")
+
+
+def test_wrong_image_size_is_a_clear_error():
+    spec = make_preset("static2", n_frames=1)
+    renderer = SceneRenderer(spec)
+    tracker = Tracker(renderer.rig, spec.config())
+    images, _ = renderer.render(0)
+    small = tuple(img[:240, :320] for img in images)
+    with pytest.raises(StereotrackError, match="320x240 but the calibration says 640x480"):
+        tracker.step(FramePair(0, small, (0.0, 0.0)))

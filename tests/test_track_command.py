@@ -1,0 +1,79 @@
+"""`stereotrack track`, `eval` and `colour learn` as a user runs them: real subprocesses on a rendered recording."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from stereotrack.synth import make_preset, render_scene
+from stereotrack.trackfile import read_tracks
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "stereotrack", *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    return render_scene(make_preset("static2", n_frames=12), tmp_path_factory.mktemp("rec") / "static2", progress=False)
+
+
+def test_track_writes_tracks_and_scores_against_truth(recording, tmp_path):
+    out = tmp_path / "tracks.csv"
+    r = cli("track", recording, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = read_tracks(out)
+    assert set(rows[:, 2].astype(int)) and len(np.unique(rows[:, 2])) == 2
+    assert "MOTA" in r.stderr and "tracked 12 frames" in r.stderr
+    ev = cli("eval", out, recording / "truth.csv", "--json")
+    assert ev.returncode == 0, ev.stderr
+    assert '"id_switches": 0' in ev.stdout
+
+
+def test_target_that_matches_nothing_warns_and_writes_an_empty_file(recording, tmp_path):
+    cfg = tmp_path / "green.yaml"
+    cfg.write_text(yaml.safe_dump({"targets": [{"name": "green", "hsv_min": [50, 200, 200], "hsv_max": [60, 255, 255]}]}))
+    out = tmp_path / "t.csv"
+    r = cli("track", recording, "--config", cfg, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "warning: target 'green' matched nothing" in r.stderr
+    assert out.read_text().splitlines() == ["frame,time,track_id,x,y,z,sx,sy,sz,n_particles,target"]
+
+
+def test_recording_without_calibration_is_refused(recording, tmp_path):
+    import shutil
+
+    bare = tmp_path / "bare"
+    shutil.copytree(recording, bare)
+    (bare / "calib.yaml").unlink()
+    r = cli("track", bare, "--quiet")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines()[-1] == f"error: {bare}: no calib.yaml in the recording; pass --calib FILE"
+
+
+def test_bad_config_is_one_line_and_debug_shows_the_traceback(recording, tmp_path):
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text(yaml.safe_dump({"targets": [], "tracker": {"alpha": 2}}))
+    r = cli("track", recording, "--config", cfg, "--quiet")
+    assert r.returncode == 2 and r.stderr.strip() == f"error: {cfg}: 'tracker.alpha': must be between 0 and 1, got 2.0"
+    r = cli("--debug", "track", recording, "--config", cfg, "--quiet")
+    assert r.returncode != 0 and "Traceback" in r.stderr
+
+
+def test_colour_learn_writes_a_target_that_tracks(recording, tmp_path):
+    from stereotrack.recording import open_recording, read_truth
+
+    rec = open_recording(recording)
+    truth = read_truth(recording / "truth.csv")
+    u, v = rec.rig[0].project(truth[truth[:, 0] == 0][:1, 2:5])[0][0]
+    roi = f"{int(u) - 12},{int(v) - 12},24,24"
+    cfg = tmp_path / "learned.yaml"
+    r = cli("colour", "learn", recording, "--frame", 0, "--camera", "cam0", "--roi", roi, "--name", "pinkish", "--config", cfg)
+    assert r.returncode == 0, r.stderr
+    learned = yaml.safe_load(cfg.read_text())["targets"][0]
+    assert learned["name"] == "pinkish" and 140 <= learned["hsv_min"][0] <= learned["hsv_max"][0] <= 179
+    out = tmp_path / "t.csv"
+    assert cli("track", recording, "--config", cfg, "--out", out, "--quiet").returncode == 0
+    assert len(np.unique(read_tracks(out)[:, 2])) == 2
