@@ -124,7 +124,8 @@ def default_blueprint(rig: Rig, with_truth: bool = False) -> Any:
     forward = np.mean([c.R[2] for c in rig.cameras], axis=0)
     up = -np.mean([c.R[1] for c in rig.cameras], axis=0)
     forward, up = forward / np.linalg.norm(forward), up / np.linalg.norm(up)
-    eye = rrb.EyeControls3D(position=centre - 0.9 * forward + 0.6 * up, look_target=centre + 1.5 * forward, eye_up=up)
+    right = np.cross(forward, up)  # OpenCV camera axes: x right = y down x z forward = forward x up
+    eye = rrb.EyeControls3D(position=centre - 0.6 * forward + 0.5 * up + 0.8 * right, look_target=centre + 1.5 * forward, eye_up=up)
     cams = [rrb.Spatial2DView(origin=f"world/cameras/{c.name}", name=c.name) for c in rig.cameras]
     series = [
         rrb.TimeSeriesView(origin="stats/counts/particles", name="particles per track"),
@@ -180,14 +181,29 @@ def _wait_for_port(host: str, port: int, proc: subprocess.Popen, seconds: float)
     return False
 
 
+def _die_with_parent() -> None:
+    """In the child before exec: get SIGTERM when the parent dies, even by SIGKILL (Linux only)."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
 def _start_viewer_process(args: list[str], host: str, port: int, what: str, detach: bool) -> subprocess.Popen:
-    """Start the rerun CLI in its own session (a terminal's Ctrl-C goes to us, not to it)."""
+    """Start the rerun CLI in its own session (a terminal's Ctrl-C goes to us, not to it).
+
+    A detached viewer (a window the user looks at) outlives us; a server we host dies with us.
+    """
     proc = subprocess.Popen(
         [rerun_executable(), *args],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE if not detach else subprocess.DEVNULL,
         start_new_session=True,
+        preexec_fn=None if detach or not sys.platform.startswith("linux") else _die_with_parent,
     )
     if not _wait_for_port(host, port, proc, 15.0):
         err = ""
@@ -309,7 +325,7 @@ class RerunSink:
             rec.log(path, rr.Transform3D(translation=cam.t, mat3x3=cam.R, relation=rr.TransformRelation.ChildFromParent), static=True)
             rec.log(
                 path,
-                rr.Pinhole(image_from_camera=cam.K, resolution=[cam.width, cam.height], camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.25),
+                rr.Pinhole(image_from_camera=cam.K, resolution=[cam.width, cam.height], camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.12),
                 static=True,
             )
             masks = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0, 0))]

@@ -6,6 +6,7 @@ balls, one object and one confirmed track per ball).
 """
 
 import argparse
+import os
 import re
 import signal
 import subprocess
@@ -431,3 +432,34 @@ def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path
     frames = [r["frame"] for r in read_rrd(rrd)["world/tracks"]]
     # --realtime skips frames it is late for, as a live camera would: increasing, not contiguous.
     assert 4 <= len(frames) and frames[-1] < 39 and frames == sorted(set(frames))
+
+
+def test_served_viewer_dies_with_a_killed_tracker(tmp_path):
+    grpc_port, web_port = _free_ports(2)
+    script = tmp_path / "serve.py"
+    script.write_text(textwrap.dedent(f"""
+        import sys, time
+        sys.path.insert(0, {str(Path(__file__).parent)!r})
+        from test_viz import make_rig, TARGETS
+        from stereotrack.config import Config
+        from stereotrack.viz import RerunSink, VizOutputs
+        sink = RerunSink(make_rig(), Config(targets=TARGETS), VizOutputs(serve=True, grpc_port={grpc_port}, web_port={web_port}))
+        print(sink._children[0].pid, flush=True)
+        time.sleep(120)
+    """))
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        child = int(proc.stdout.readline())
+        assert Path(f"/proc/{child}").exists()
+        proc.kill()  # SIGKILL: no finally, no close()
+        proc.wait(10)
+        deadline = time.monotonic() + 10
+        while Path(f"/proc/{child}").exists() and Path(f"/proc/{child}/stat").read_text().split()[2] != "Z" and time.monotonic() < deadline:
+            time.sleep(0.1)
+        alive = Path(f"/proc/{child}").exists() and Path(f"/proc/{child}/stat").read_text().split()[2] != "Z"
+        assert not alive, "the served viewer outlived the killed tracker"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if "child" in locals() and Path(f"/proc/{child}").exists():
+            os.kill(child, signal.SIGKILL)  # do not leave a server behind when the test fails
