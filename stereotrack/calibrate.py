@@ -26,7 +26,7 @@ import yaml
 
 from .boards import MIN_CORNERS, Board, BoardDetector, Detection, board_to_dict, diagnose, flipped
 from .camera import Camera, Rig
-from .console import Progress
+from .console import Progress, warn
 from .errors import StereotrackError
 
 MIN_VIEWS = 5  # fewer views than this cannot pin down focal length, centre and distortion
@@ -86,20 +86,43 @@ def _list_images(source: str) -> list[Path]:
     return files
 
 
+def _trailing_number(stems: list[str]) -> list[str]:
+    """left01 -> 1, cam1_0007 -> 7 (names without a trailing number keep their stem)."""
+    out = []
+    for stem in stems:
+        digits = len(stem) - len(stem.rstrip("0123456789"))
+        out.append(str(int(stem[-digits:])) if digits else stem)
+    return out
+
+
 def match_image_files(sources: Sequence[str]) -> tuple[list[str], list[list[Path]]]:
-    """Image files matched across cameras by name: (view names, files per view, one per camera)."""
+    """Image files matched across cameras by name: (view names, files per view, one per camera).
+
+    Three ways to match are tried (same name; name without the folder's common
+    prefix, left01 <-> right01; same trailing number) and the one that pairs
+    the most images wins.
+    """
     per_cam = [_list_images(s) for s in sources]
-    keyed = []
-    for files in per_cam:
-        keys = _view_key([f.stem for f in files])
-        keyed.append(dict(zip(keys, files)))
-    common = sorted(set(keyed[0]).intersection(*keyed[1:]))
+    best: tuple[list[str], list[dict[str, Path]]] | None = None
+    for keys_of in (lambda stems: stems, _view_key, _trailing_number):
+        keyed = []
+        for files in per_cam:
+            keys = keys_of([f.stem for f in files])
+            keyed.append(dict(zip(keys, files)))
+        common = sorted(set(keyed[0]).intersection(*keyed[1:]))
+        if best is None or len(common) > len(best[0]):
+            best = (common, keyed)
+    common, keyed = best
     if not common:
         examples = ", ".join(f"{files[0].name}" for files in per_cam)
         raise StereotrackError(
             f"no image names match between {' and '.join(sources)} (first files: {examples}); "
             f"name the images of one view alike, e.g. cam0/001.png and cam1/001.png, or left01.jpg and right01.jpg"
         )
+    for source, k in zip(sources, keyed):
+        alone = sorted(set(k) - set(common))
+        if alone:
+            warn(f"{source}: {len(alone)} image(s) have no partner in the other folders and are skipped (e.g. {k[alone[0]].name})")
     return common, [[k[name] for k in keyed] for name in common]
 
 
@@ -226,7 +249,7 @@ def views_from_frames(
             idx, cand = pending
             pending = None
             steady = all(a is None or (b is not None and _mean_shift(a, b) <= steady_px) for a, b in zip(cand, dets))
-            if steady and _is_new(cand, taken, sizes, min_new):
+            if steady and _is_new(board, cand, taken, sizes, min_new):
                 taken.append(cand)
                 taken_names.append(f"frame{idx:06d}")
                 bar.update(0, extra=_take_summary(names, taken, sizes))
@@ -234,7 +257,7 @@ def views_from_frames(
                     break
             if pair.index % every != 0:
                 continue
-        if sum(d is not None for d in dets) < min(2, len(dets)) or not _is_new(dets, taken, sizes, min_new):
+        if sum(d is not None for d in dets) < min(2, len(dets)) or not _is_new(board, dets, taken, sizes, min_new):
             continue
         if steady_px is None:
             taken.append(dets)
@@ -250,7 +273,7 @@ def views_from_frames(
     return ViewSet(names, sizes, tuple(taken_names), tuple(taken), tuple(tuple(s) for s in samples))
 
 
-def _is_new(dets: Sequence[Detection | None], taken: Sequence[Sequence[Detection | None]], sizes, min_new: float) -> bool:
+def _is_new(board: Board, dets: Sequence[Detection | None], taken: Sequence[Sequence[Detection | None]], sizes, min_new: float) -> bool:
     for old in taken:
         moved = False
         for c, (a, b) in enumerate(zip(dets, old)):
@@ -259,7 +282,10 @@ def _is_new(dets: Sequence[Detection | None], taken: Sequence[Sequence[Detection
                     moved = True  # seen by another set of cameras: counts as new
                 continue
             diag = math.hypot(*sizes[c])
-            if _mean_shift(a, b) > min_new * diag:
+            shift = _mean_shift(a, b)
+            if board.type == "chessboard":  # the same pose numbered from the other end is not new
+                shift = min(shift, _mean_shift(flipped(board, a), b))
+            if shift > min_new * diag:
                 moved = True
         if not moved:
             return False

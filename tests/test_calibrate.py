@@ -188,11 +188,13 @@ def test_world_from_a_board_view_has_z_up(rendered):
 def test_calibrate_command_from_image_folders(tmp_path, rendered):
     rig, board, images, _ = rendered["chessboard"]
     dirs = write_image_folders(tmp_path / "shots", rig, images[:12])
+    cv2.imwrite(str(dirs[1] / "extra.png"), images[12][1])  # no partner in cam0: skipped with a warning
     save_board(board, tmp_path / "board.yaml")
     out = tmp_path / "calib" / "desk.yaml"
     r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", *dirs, "--out", out, "--no-progress")
     assert r.returncode == 0, r.stderr
     assert "verdict:" in r.stdout and "baseline" in r.stdout
+    assert "1 image(s) have no partner in the other folders and are skipped (e.g. extra.png)" in r.stderr
     est = load_rig(out)
     assert est.quality["views_used"] == 12 and est.quality["board"]["type"] == "chessboard"
     assert abs(est.baseline() / rig.baseline() - 1) < 0.01
@@ -317,12 +319,12 @@ def test_calibrate_command_from_live_cameras(tmp_path, rendered):
     # Two video files played as cameras, paced at their frame rate by the live capture threads.
     rig, board, images, _ = rendered["charuco"]
     folder = tmp_path / "cams"
-    with RecordingWriter(folder, rig.names, (640, 480), 12.0) as w:
+    with RecordingWriter(folder, rig.names, (640, 480), 10.0) as w:
         n = 0
-        for k in (0, 1, 2, 4, 5, 6, 7, 9):  # distinct poses (3 and 8 are close to 1)
+        for k in (0, 1, 2, 4, 5, 6):  # distinct poses (3 is close to 1)
             bgr = [cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) for im in images[k]]
-            for _ in range(6):  # held still for 0.5 s
-                w.write(bgr, [n / 12, n / 12])
+            for _ in range(12):  # held still for 1.2 s: time to detect it twice even on a loaded machine
+                w.write(bgr, [n / 10, n / 10])
                 n += 1
     save_board(board, tmp_path / "board.yaml")
     out = tmp_path / "live.yaml"
@@ -330,7 +332,7 @@ def test_calibrate_command_from_live_cameras(tmp_path, rendered):
                 "--out", out, "--no-progress")
     assert r.returncode == 0, r.stderr
     est = load_rig(out)
-    assert 5 <= est.quality["views_used"] <= 8, r.stdout
+    assert 5 <= est.quality["views_used"] <= 6, r.stdout
     assert abs(est.baseline() / rig.baseline() - 1) < 0.01
 
 
