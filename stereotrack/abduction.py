@@ -25,20 +25,35 @@ class Blobs:
     radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side)
     labels: np.ndarray | None = None  # H x W int32 component label image (components only)
     label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
+    label_scale: int = 1  # pixel (u, v) has label labels[v // label_scale, u // label_scale]
 
     def __len__(self) -> int:
         return len(self.centres)
 
 
-def _components(mask: np.ndarray, min_area: int) -> Blobs:
-    n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    stats, centroids = stats[1:], centroids[1:]
-    keep = stats[:, cv2.CC_STAT_AREA] >= min_area
+def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
+    """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
+    each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
+    small = np.ascontiguousarray(mask[::scale, ::scale]) if scale > 1 else mask
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
+    keep = stats[1:, cv2.CC_STAT_AREA] * scale * scale >= min_area
     label_blob = np.full(n, -1)
     label_blob[1:][keep] = np.arange(keep.sum())
-    stats, centroids = stats[keep], centroids[keep]
-    radii = 0.5 * np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
-    return Blobs(centroids.astype(float), stats[:, cv2.CC_STAT_AREA].astype(float), radii.astype(float), labels, label_blob)
+    stats = stats[1:][keep]
+    h, w = mask.shape
+    centres = np.zeros((len(stats), 2))
+    areas = np.zeros(len(stats))
+    radii = np.zeros(len(stats))
+    for i, (x, y, bw, bh, _) in enumerate(stats):  # a loop over blobs (a handful), not pixels
+        x0, y0 = max(0, x * scale - scale), max(0, y * scale - scale)
+        x1, y1 = min(w, (x + bw) * scale + scale), min(h, (y + bh) * scale + scale)
+        roi = mask[y0:y1, x0:x1]
+        m = cv2.moments(roi, binaryImage=True)
+        _, _, fw, fh = cv2.boundingRect(roi)
+        areas[i] = m["m00"]
+        radii[i] = 0.5 * max(fw, fh)
+        centres[i] = (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]) if m["m00"] else (x0 + 0.5 * (x1 - x0), y0 + 0.5 * (y1 - y0))
+    return Blobs(centres, areas, radii, labels, label_blob, scale)
 
 
 def _local_maxima(hist: np.ndarray, min_count: float) -> np.ndarray:

@@ -148,32 +148,38 @@ def _seeds(X, w, prev_means, radius, min_mass, max_objects, cameras):
     return np.array(seeds).reshape(-1, 3)
 
 
-def _projected_spread(cameras: Sequence[Camera], X: np.ndarray, w: np.ndarray, mean: np.ndarray, radius: float):
-    """Largest ratio (projected std / apparent ball radius) over cameras, and its camera's split direction in 3D."""
-    best, direction = 0.0, None
+def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Every particle's projection, visibility and focal length over depth, per camera (computed once)."""
+    out = []
     for cam in cameras:
         uv, ok = cam.project(X)
-        if ok.sum() < 3:
+        f_over_z = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) / np.maximum(cam.depth(X), 1e-6)
+        out.append((uv, ok, f_over_z))
+    return out
+
+
+def _projected_spread(views, X: np.ndarray, w: np.ndarray, member: np.ndarray, radius: float):
+    """Largest ratio (projected std / apparent ball radius) over cameras for one cluster, and the two halves to split it into."""
+    best, halves = 0.0, None
+    for uv_all, ok_all, f_over_z in views:
+        sel = member & ok_all
+        if sel.sum() < 3:
             continue
-        ww = w[ok] / w[ok].sum()
-        c = (ww[:, None] * uv[ok]).sum(0)
-        d = uv[ok] - c
-        cov = (ww[:, None, None] * d[:, :, None] * d[:, None, :]).sum(0)
+        uv, ww = uv_all[sel], w[sel] / w[sel].sum()
+        c = ww @ uv
+        d = uv - c
+        cov = (ww[:, None] * d).T @ d
         evals, evecs = np.linalg.eigh(cov)
-        z = cam.depth(mean[None])[0]
-        if z <= 0:
-            continue
-        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / z
+        r_px = radius * float(ww @ f_over_z[sel])
         ratio = np.sqrt(max(evals[-1], 0.0)) / r_px
         if ratio > best:
-            # Split along the 3D direction whose projection is the image's principal axis.
-            proj = (uv[ok] - c) @ evecs[:, -1]
-            hi = proj > 0
+            # Split across the image's principal axis of the cluster's projection.
+            hi = d @ evecs[:, -1] > 0
             if hi.any() and (~hi).any():
-                a = np.average(X[ok][hi], axis=0, weights=ww[hi])
-                b = np.average(X[ok][~hi], axis=0, weights=ww[~hi])
-                best, direction = ratio, (a, b)
-    return best, direction
+                Xs = X[sel]
+                best = ratio
+                halves = (np.average(Xs[hi], axis=0, weights=ww[hi]), np.average(Xs[~hi], axis=0, weights=ww[~hi]))
+    return best, halves
 
 
 def _merge_pair(cameras: Sequence[Camera], means: np.ndarray, radius: float) -> tuple[int, int] | None:
@@ -225,8 +231,9 @@ def cluster_particles(
     if len(means) == 0:
         return _empty(n)
     covs = np.repeat((np.eye(3) * R * R)[None], len(means), axis=0)
-    for _round in range(10):  # ISODATA: EM, then discard / merge / split, until stable
-        iterations = settings.em_iterations if _round == 0 else 2  # later rounds only settle a local change
+    views = _views(cameras, X)
+    for _round in range(4):  # ISODATA: EM, then discard / merge / split, until stable
+        iterations = settings.em_iterations if _round == 0 else 2  # later rounds only settle local changes
         if settings.method == "sklearn":
             means, covs, pis, resp = _sklearn_em(X, w, means, covs, iterations, reg, rng)
         else:
@@ -234,36 +241,34 @@ def cluster_particles(
         labels = resp.argmax(axis=1)
         mass = np.bincount(labels, weights=w, minlength=len(means))
         count = np.bincount(labels, minlength=len(means))
-        changed = False
         alive = (mass >= settings.min_mass) & (count >= settings.min_particles)
-        if not alive.all():
-            means, covs, changed = means[alive], covs[alive], True
-            if len(means) == 0:
-                return _empty(n)
-            continue
-        # Merge a pair that is one ball: closer than R, or closer than 2R (touching balls are 2R
-        # apart) while no camera sees them more than half a ball apart (a depth-elongated cloud).
-        pair = _merge_pair(cameras, means, R)
-        if pair is not None:
+        changed = not alive.all()
+        means, covs, mass = means[alive], covs[alive], mass[alive]
+        if len(means) == 0:
+            return _empty(n)
+        labels = np.where(alive[labels], np.cumsum(alive)[labels] - 1, -1)
+        # Merge every pair that is one ball: closer than R, or closer than 2R (touching balls are
+        # 2R apart) while no camera sees them more than half a ball apart (a depth-elongated cloud).
+        while (pair := _merge_pair(cameras, means, R)) is not None:
             i, j = pair
-            wi, wj = mass[i], mass[j]
-            means[i] = (wi * means[i] + wj * means[j]) / (wi + wj)
-            means, covs = np.delete(means, j, 0), np.delete(covs, j, 0)
-            continue
-        # Split the widest cluster if it is wider than one ball in some camera.
-        if len(means) < settings.max_objects:
-            worst, split = 0.0, None
+            means[i] = (mass[i] * means[i] + mass[j] * means[j]) / (mass[i] + mass[j])
+            mass[i] += mass[j]
+            labels = np.where(labels == j, i, np.where(labels > j, labels - 1, labels))
+            means, covs, mass = np.delete(means, j, 0), np.delete(covs, j, 0), np.delete(mass, j)
+            changed = True
+        # Split every cluster wider than one ball in some camera (early rounds only: no ping-pong).
+        if not changed and _round < 2:
+            new_means, new_covs = [], []
             for k in range(len(means)):
-                member = labels == k
-                ratio, halves = _projected_spread(cameras, X[member], w[member], means[k], R)
-                if ratio > settings.split_factor and ratio > worst and halves is not None:
-                    worst, split = ratio, (k, halves)
-            if split is not None:
-                k, (a, b) = split
-                means = np.vstack([np.delete(means, k, 0), a, b])
-                covs = np.concatenate([np.delete(covs, k, 0), np.repeat((np.eye(3) * R * R)[None], 2, axis=0)])
-                changed = True
-                continue
+                ratio, halves = _projected_spread(views, X, w, labels == k, R)
+                if ratio > settings.split_factor and halves is not None and len(means) + len(new_means) < settings.max_objects:
+                    new_means += list(halves)
+                    new_covs += [np.eye(3) * R * R] * 2
+                    changed = True
+                else:
+                    new_means.append(means[k])
+                    new_covs.append(covs[k])
+            means, covs = np.array(new_means), np.array(new_covs)
         if not changed:
             break
     # Final labels (E-step against the final mixture) and weighted statistics over all kept particles.

@@ -42,19 +42,25 @@ class ExplainSettings:
     track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
 
 
-def _blob_of(cam: Camera, blobs: Blobs, position: np.ndarray, r_px: float) -> int:
-    """Index of the blob the object's projection falls in (or the nearest within one apparent radius), else -1."""
-    uv, ok = cam.project(position[None])
-    if not ok[0] or len(blobs) == 0:
-        return -1
-    u, v = uv[0]
-    if blobs.labels is not None and 0 <= u < cam.width and 0 <= v < cam.height:
-        b = int(blobs.label_blob[blobs.labels[int(v), int(u)]])
-        if b >= 0:
-            return b
-    d = np.linalg.norm(blobs.centres - uv[0], axis=1)
-    i = int(np.argmin(d))
-    return i if d[i] <= max(r_px, 3.0) + blobs.radii[i] else -1
+def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:
+    """For each position: the blob its projection falls in (or the nearest within one apparent radius), else -1."""
+    out = np.full(len(positions), -1)
+    if len(blobs) == 0 or len(positions) == 0:
+        return out
+    uv, ok = cam.project(positions)
+    inside = ok & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+    if blobs.labels is not None and inside.any():
+        s = blobs.label_scale
+        u = (uv[inside, 0] / s).astype(int).clip(0, blobs.labels.shape[1] - 1)
+        v = (uv[inside, 1] / s).astype(int).clip(0, blobs.labels.shape[0] - 1)
+        out[inside] = blobs.label_blob[blobs.labels[v, u]]
+    miss = ok & (out < 0)
+    if miss.any():
+        d = np.linalg.norm(uv[miss, None, :] - blobs.centres[None], axis=2)
+        nearest = d.argmin(axis=1)
+        close = d[np.arange(len(nearest)), nearest] <= np.maximum(r_px[miss], 3.0) + blobs.radii[nearest]
+        out[np.flatnonzero(miss)[close]] = nearest[close]
+    return out
 
 
 def _merge(objs: Sequence[Object3D]) -> Object3D:
@@ -69,19 +75,20 @@ def _merge(objs: Sequence[Object3D]) -> Object3D:
     return Object3D(objs[0].target, mean, cov, float(m.sum()), int(sum(o.n_particles for o in objs)))
 
 
-def _signature(obj: Object3D, cameras, blobs, radius) -> tuple[tuple[int, ...], np.ndarray]:
-    ids, log_ratio = [], []
-    for cam, b in zip(cameras, blobs):
-        z = cam.depth(obj.position[None])[0]
-        if z <= 0:
-            ids.append(-1)
-            log_ratio.append(np.nan)
-            continue
-        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / z
-        k = _blob_of(cam, b, obj.position, r_px)
-        ids.append(k)
-        log_ratio.append(np.log(max(b.radii[k], 0.5) / r_px) if k >= 0 and np.isfinite(b.radii[k]) else np.nan)
-    return tuple(ids), np.array(log_ratio)
+def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarray, np.ndarray]:
+    """Per object and camera: the blob it sees (-1: none) and log(blob radius / expected radius)."""
+    k, c = len(positions), len(cameras)
+    ids = np.full((k, c), -1)
+    log_ratio = np.full((k, c), np.nan)
+    for j, (cam, b) in enumerate(zip(cameras, blobs)):
+        z = cam.depth(positions)
+        front = z > 0
+        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, z, 1.0)
+        ids[:, j] = np.where(front, _blob_ids(cam, b, positions, r_px), -1)
+        seen = ids[:, j] >= 0
+        if seen.any():
+            log_ratio[seen, j] = np.log(np.maximum(b.radii[ids[seen, j]], 0.5) / r_px[seen])
+    return ids, log_ratio
 
 
 def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainSettings, predicted: np.ndarray | None) -> np.ndarray:
@@ -113,8 +120,8 @@ def explain(
     # Clusters that see the same blobs in every camera are one ball: EM cut its cloud (long along
     # the viewing direction, longer still where two balls merge into one blob) into pieces.
     groups: dict[tuple[int, ...], list[int]] = {}
-    for i, obj in enumerate(objects):
-        sig, _ = _signature(obj, cameras, blobs, settings.radius)
+    ids, _ = _signatures(np.array([o.position for o in objects]), cameras, blobs, settings.radius)
+    for i, sig in enumerate(map(tuple, ids.tolist())):
         if any(k >= 0 for k in sig):
             groups.setdefault(sig, []).append(i)
     merged, members, blob_ids = [], [], []
@@ -125,7 +132,7 @@ def explain(
     if not merged:
         return [], into
     blob_ids = np.array(blob_ids)
-    log_ratio = np.array([_signature(o, cameras, blobs, settings.radius)[1] for o in merged])
+    _, log_ratio = _signatures(np.array([o.position for o in merged]), cameras, blobs, settings.radius)
     score = _rank(merged, log_ratio, settings, predicted)
     c = len(cameras)
     used: set[tuple[int, int]] = set()
