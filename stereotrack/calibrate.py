@@ -531,7 +531,7 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
     for c in range(n_cams):
         vs = views.seen_by(c)
         rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
-        intr[c] = Intrinsics(K, dist, rms, float(std[0]), vs)
+        intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
 
     shared = {}
     for i in range(n_cams):
@@ -543,6 +543,8 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
     t_world = {0: np.zeros(3)}
     pairs = []
     refine = options.refine and n_cams == 2
+    if options.refine and not refine:
+        warn("--refine is done for two cameras only; with more, each pair keeps the per-camera intrinsics")
     for p, c in edges:
         vs = shared[(min(p, c), max(p, c))]
         relabelled = _make_labels_consistent(board, dets, vs, p, c, intr)
@@ -587,8 +589,7 @@ def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], vie
             f"--world-view {view_name!r}: the board is seen by {len(seen)} camera(s) in that view; choose a view seen by two or more"
             + (f", e.g. {', '.join(both[:5])}" if both else "")
         )
-    # Average the board pose over the cameras that see it (each via its own pose in the rig).
-    c0 = seen[0]
+    c0 = seen[0]  # the first camera that sees the board in that view
     Rb, tb = _pose(board, dets[v][c0], cams[c0].K, cams[c0].dist)  # board -> camera c0
     flip = np.diag([1.0, -1.0, -1.0])  # board z points into the print; the world's z points out of it
     R_bw = cams[c0].R.T @ Rb @ flip  # world' -> old world rotation

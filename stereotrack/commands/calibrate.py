@@ -56,8 +56,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from ..boards import load_board
     from ..calibrate import CalibrationOptions, calibrate, format_report, report_path, save_report, views_from_frames, views_from_images
     from ..camera import save_rig
@@ -102,9 +100,7 @@ def run(args: argparse.Namespace) -> int:
     result = calibrate(views, board, options)
     save_rig(result.rig, args.out)
     rpath = report_path(args.out)
-    report = dict(result.report)
-    report = {"calibration": str(args.out), **report}
-    save_report(report, rpath)
+    save_report({"calibration": str(args.out), **result.report}, rpath)
     print(format_report(result.report))
     print(f"wrote {args.out} and {rpath}")
     return 0
