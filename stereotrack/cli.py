@@ -17,6 +17,7 @@ COMMANDS: list[str] = [
     "track",
     "eval",
     "colour",
+    "bench",
     "record",
     "cameras",
     "live",

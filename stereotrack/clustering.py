@@ -38,8 +38,8 @@ class ClusterSettings:
     min_mass: float = 0.01
     min_particles: int = 8
     max_objects: int = 12
-    em_iterations: int = 6
-    em_points: int = 400  # EM runs on at most this many particles, resampled by weight
+    em_iterations: int = 4
+    em_points: int = 250  # EM runs on at most this many particles, resampled by weight
     split_factor: float = 1.0  # split when the projected spread (std) exceeds this many apparent radii
     method: str = "numpy"  # "numpy" (weighted EM) or "sklearn" (GaussianMixture on resampled particles)
 
