@@ -29,6 +29,7 @@ from typing import Sequence
 import numpy as np
 
 from .abduction import Blobs
+from .baseline import triangulation_covariance
 from .camera import Camera, triangulate_points
 from .results import Object3D
 
@@ -40,6 +41,7 @@ class ExplainSettings:
     refine_tolerance: float = 0.3  # |log size ratio| below this in every camera allows refinement
     refine: bool = True
     track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
+    centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
 
 
 def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:
@@ -166,14 +168,24 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings) -> Obj
             continue  # a blob shared with another ball: its centroid is of neither
         good.append(j)
     if len(good) >= 2:
-        point = triangulate_points([cameras[j] for j in good], [blobs[j].centres[blob_ids[i, j]][None] for j in good])[0]
+        px = [blobs[j].centres[blob_ids[i, j]][None] for j in good]
+        point = triangulate_points([cameras[j] for j in good], px)[0]
+        # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
+        cov = triangulation_covariance(cameras[good[0]], cameras[good[1]], px[0], px[1], settings.centroid_sigma_px)[0]
     elif len(good) == 1:
-        # One clean view: its ray fixes the direction, the particles the distance along it.
+        # One clean view: its ray fixes the direction, the particles the distance along it. The
+        # covariance says so (tight across the ray, the particles' spread along it), so the track's
+        # Kalman filter leans on its own prediction for the depth.
         j = good[0]
         o, d = cameras[j].rays(blobs[j].centres[blob_ids[i, j]][None])
-        point = o[0] + d[0] * float((obj.position - o[0]) @ d[0])
+        o, d = o[0], d[0]
+        point = o + d * float((obj.position - o) @ d)
+        along = max(float(d @ obj.covariance @ d), (2 * settings.radius) ** 2)
+        z = float(cameras[j].depth(point[None])[0])
+        across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
+        cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     else:
         return obj
     if np.linalg.norm(point - obj.position) > 3 * settings.radius:
         return obj  # the blobs disagree with the particles: trust the particles
-    return replace(obj, position=point)
+    return replace(obj, position=point, covariance=cov)

@@ -46,11 +46,23 @@ def resolve_config(recording, config_path: str | None):
     from ..errors import StereotrackError
 
     if config_path:
-        return load_config(config_path)
+        return with_recording_up(load_config(config_path), recording)
     path = recording.targets_path
     if path is None:
         raise StereotrackError(f"{recording.folder}: no targets file in the recording; pass --config FILE (see 'stereotrack colour learn')")
-    return load_config(path)
+    return with_recording_up(load_config(path), recording)
+
+
+def with_recording_up(config, recording):
+    """Gravity for the tracks' motion model from the recording's optional 'up' axis, unless the config sets one."""
+    from dataclasses import replace
+
+    from ..config import up_axis
+
+    up = recording.meta.get("up")
+    if config.tracks.up is not None or up is None:
+        return config
+    return replace(config, tracks=replace(config.tracks, up=up_axis(up, f"{recording.folder / 'meta.yaml'}: 'up'")))
 
 
 def make_tracker(method: str, rig, config, keep_rays: bool = False):
