@@ -42,6 +42,7 @@ class ExplainSettings:
     refine: bool = True
     track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
     centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
+    one_view_depth_sigma: float = 0.15  # metres: how little the particles say about depth when only one view is clean
 
 
 def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:
@@ -180,7 +181,7 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings) -> Obj
         o, d = cameras[j].rays(blobs[j].centres[blob_ids[i, j]][None])
         o, d = o[0], d[0]
         point = o + d * float((obj.position - o) @ d)
-        along = max(float(d @ obj.covariance @ d), (2 * settings.radius) ** 2)
+        along = max(float(d @ obj.covariance @ d), settings.one_view_depth_sigma**2)
         z = float(cameras[j].depth(point[None])[0])
         across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
         cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
