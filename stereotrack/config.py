@@ -49,7 +49,7 @@ class TrackerSettings:
     cluster_min_mass: float = 0.01  # clusters with less weight are dropped
     cluster_min_particles: int = 8  # clusters with fewer particles are dropped
     max_objects: int = 12  # at most this many objects per target
-    refine: bool = True  # an object that alone explains a blob of the right size in every camera takes the triangulated blob centroids
+    refine: bool = True  # objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from particles + motion)
     seed: int = 0  # random seed; runs are reproducible
 
 

@@ -139,7 +139,12 @@ def track_recording(args, default_out: Path | None = None) -> int:
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it
             warn(f"could not score against truth.csv: {exc}")
     if viz_sink is not None and getattr(viz_sink, "rrd_path", None):
-        info(f"rerun recording written to {viz_sink.rrd_path}; open it with: rerun {viz_sink.rrd_path}")
+        import os
+        import sys
+
+        viewer = Path(sys.executable).parent / "rerun"
+        viewer_cmd = os.path.relpath(viewer) if viewer.exists() else "rerun"
+        info(f"rerun recording written to {viz_sink.rrd_path}; open it with: {viewer_cmd} {viz_sink.rrd_path}")
     return 0
 
 
