@@ -120,14 +120,7 @@ class BaselineTracker:
         self.tracks = TrackManager(config.tracks)
 
     def step(self, frame: FramePair) -> FrameResult:
-        if len(frame.images) != len(self.rig):
-            raise StereotrackError(f"got {len(frame.images)} images per frame but the calibration has {len(self.rig)} cameras")
-        for cam, img in zip(self.rig.cameras, frame.images):
-            if img.shape[1] != cam.width or img.shape[0] != cam.height:
-                raise StereotrackError(
-                    f"frame from {cam.name} is {img.shape[1]}x{img.shape[0]} but the calibration says {cam.width}x{cam.height} "
-                    f"(set the camera to the calibrated resolution or recalibrate)"
-                )
+        self.rig.check_images(frame.images)
         timings: dict[str, float] = {}
         t0 = _time.perf_counter()
         targets = self.config.targets

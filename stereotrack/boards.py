@@ -25,6 +25,7 @@ import numpy as np
 import yaml
 
 from .errors import StereotrackError
+from .yamlfile import load_yaml
 
 BOARD_TYPES = ("chessboard", "charuco")
 DICTIONARIES = tuple(n for n in dir(cv2.aruco) if n.startswith("DICT_") and n.upper() == n)
@@ -121,14 +122,8 @@ def board_to_dict(board: Board) -> dict[str, Any]:
 
 
 def load_board(path: str | Path) -> Board:
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: board file not found (write one like calib/board.yaml: type, squares, square, marker, dictionary)")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    return board_from_dict(data, path)
+    data = load_yaml(path, "board file not found (write one like calib/board.yaml: type, squares, square, marker, dictionary)")
+    return board_from_dict(data, Path(path))
 
 
 def save_board(board: Board, path: str | Path) -> None:

@@ -633,7 +633,6 @@ def _verdict(report: dict[str, Any]) -> tuple[str, list[str]]:
 
 
 def _report(views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrinsics], pairs: list[dict], options: CalibrationOptions) -> dict[str, Any]:
-    names = views.camera_names
     per_view: dict[int, dict[str, float]] = {v: {} for v in range(views.n_views)}
     cameras: dict[str, Any] = {}
     all_sq = []

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from .errors import StereotrackError
+from .yamlfile import load_yaml
 
 _DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
 # Iterative undistortion to machine precision (OpenCV's default stops after 5 steps).
@@ -158,6 +159,17 @@ class Rig:
             raise ValueError("triangulation needs observations from at least 2 cameras")
         return triangulate_points([c for c, _ in obs], [p for _, p in obs])[0]
 
+    def check_images(self, images: Sequence[np.ndarray]) -> None:
+        """Refuse frames whose count or size does not match the calibration (a user's camera settings)."""
+        if len(images) != len(self.cameras):
+            raise StereotrackError(f"got {len(images)} images per frame but the calibration has {len(self.cameras)} cameras")
+        for cam, img in zip(self.cameras, images):
+            if img.shape[1] != cam.width or img.shape[0] != cam.height:
+                raise StereotrackError(
+                    f"frame from {cam.name} is {img.shape[1]}x{img.shape[0]} but the calibration says {cam.width}x{cam.height} "
+                    f"(set the camera to the calibrated resolution or recalibrate)"
+                )
+
     def baseline(self, i: int = 0, j: int = 1) -> float:
         return float(np.linalg.norm(self.cameras[i].centre - self.cameras[j].centre))
 
@@ -290,14 +302,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
 
 def load_rig(path: str | Path) -> Rig:
     """Read and validate a calibration YAML file."""
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: calibration file not found (run 'stereotrack calibrate' or pass --calib FILE)")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    return rig_from_dict(data, path)
+    data = load_yaml(path, "calibration file not found (run 'stereotrack calibrate' or pass --calib FILE)")
+    return rig_from_dict(data, Path(path))
 
 
 def save_rig(rig: Rig, path: str | Path) -> None:

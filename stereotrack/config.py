@@ -16,6 +16,7 @@ from typing import Any
 import yaml
 
 from .errors import StereotrackError
+from .yamlfile import load_yaml
 
 
 @dataclass(frozen=True)
@@ -237,14 +238,7 @@ def up_axis(value: Any, where: str = "up") -> tuple[float, float, float] | None:
 
 
 def load_config(path: str | Path) -> Config:
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: config file not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    return config_from_dict(data, path)
+    return config_from_dict(load_yaml(path, "config file not found"), Path(path))
 
 
 def target_to_dict(t: Target) -> dict[str, Any]:

@@ -42,7 +42,7 @@ class ExplainSettings:
     refine: bool = True
     track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
     centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
-    one_view_depth_sigma: float = 0.15  # metres: how little the particles say about depth when only one view is clean
+    one_view_depth_sigma: float = 0.07  # metres: how little the particles say about depth when only one view is clean
 
 
 def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:

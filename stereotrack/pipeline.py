@@ -64,18 +64,8 @@ class Tracker:
         self.identities = TrackManager(config.tracks)
         self.last_time: float | None = None
 
-    def _check_sizes(self, pair: FramePair) -> None:
-        if len(pair.images) != len(self.rig):
-            raise StereotrackError(f"got {len(pair.images)} images per frame but the calibration has {len(self.rig)} cameras")
-        for cam, img in zip(self.rig.cameras, pair.images):
-            if img.shape[1] != cam.width or img.shape[0] != cam.height:
-                raise StereotrackError(
-                    f"frame from {cam.name} is {img.shape[1]}x{img.shape[0]} but the calibration says {cam.width}x{cam.height} "
-                    f"(set the camera to the calibrated resolution or recalibrate)"
-                )
-
     def step(self, pair: FramePair) -> FrameResult:
-        self._check_sizes(pair)
+        self.rig.check_images(pair.images)
         s = self.config.tracker
         now = pair.time
         dt = (now - self.last_time) if self.last_time is not None else 0.0

@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-import yaml
 
 from .errors import StereotrackError
+from .yamlfile import load_yaml
 from .synth import BallSpec, colour_bgr, Lighting, Occluder, RigSpec, SceneSpec
 from .trajectories import TRAJECTORIES, Ballistic, Line, Pendulum, Samples, Static
 
@@ -250,11 +250,4 @@ def scene_from_dict(data: Any, path: str | Path = "<scene>") -> SceneSpec:
 
 
 def load_scene_yaml(path: str | Path) -> SceneSpec:
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: scene file not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    return scene_from_dict(data, path)
+    return scene_from_dict(load_yaml(path, "scene file not found"), Path(path))

@@ -8,7 +8,7 @@ from stereotrack.cli import main
 from stereotrack.errors import StereotrackError
 from stereotrack.recording import open_recording, read_truth
 from stereotrack.scenes import PRESETS, load_scene_yaml, make_preset
-from stereotrack.synth import BallSpec, Occluder, RigSpec, SceneRenderer, SceneSpec, ensure_demo_recording, render_scene
+from stereotrack.synth import BallSpec, Occluder, RigSpec, SceneRenderer, SceneSpec, ensure_demo_recording
 from stereotrack.trajectories import Static
 
 

@@ -51,7 +51,7 @@ def run_learn(args) -> int:
     import yaml
 
     from ..colour import learn_target
-    from ..config import Config, config_from_dict, load_config, save_config
+    from ..config import config_from_dict, load_config, save_config
     from ..console import info, warn
     from ..errors import StereotrackError
     from ..recording import open_recording

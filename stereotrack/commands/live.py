@@ -88,7 +88,6 @@ class LatencySink:
 
 def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = True):
     """Track ``source`` until it ends, Ctrl-C/SIGTERM, or ``seconds``; returns (RunSummary, latencies in s)."""
-    import itertools
     import time
 
     from ..pipeline import run_pipeline
