@@ -259,8 +259,10 @@ def cluster_particles(
         # Split every cluster wider than one ball in some camera (early rounds only: no ping-pong).
         if not changed and _round < 2:
             new_means, new_covs = [], []
+            # A cluster whose 3D spread is under one radius cannot look wider than one ball.
+            wide = np.sqrt(np.linalg.eigvalsh(covs)[:, -1]) > settings.split_factor * R
             for k in range(len(means)):
-                ratio, halves = _projected_spread(views, X, w, labels == k, R)
+                ratio, halves = _projected_spread(views, X, w, labels == k, R) if wide[k] else (0.0, None)
                 if ratio > settings.split_factor and halves is not None and len(means) + len(new_means) < settings.max_objects:
                     new_means += list(halves)
                     new_covs += [np.eye(3) * R * R] * 2
