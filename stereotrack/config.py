@@ -50,6 +50,9 @@ class TrackerSettings:
     cluster_min_mass: float = 0.01  # clusters with less weight are dropped
     cluster_min_particles: int = 8  # clusters with fewer particles are dropped
     max_objects: int = 12  # at most this many objects per target
+    particle_velocity: bool = True  # particles near a track drift with its velocity (else the paper's pure random walk)
+    exclusion: bool = True  # a particle following one track dies inside another tracked ball (seed 000's blocking)
+    occlusion: bool = True  # a camera whose view of a particle is blocked by a tracked ball does not judge it
     refine: bool = True  # objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from particles + motion)
     seed: int = 0  # random seed; runs are reproducible
 

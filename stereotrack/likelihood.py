@@ -45,9 +45,43 @@ def camera_factor(camera: Camera, integral: np.ndarray, positions: np.ndarray, w
     return np.maximum(1, r) / float(window * window)
 
 
-def likelihood(cameras: Sequence[Camera], integrals: Sequence[np.ndarray], positions: np.ndarray, window: int) -> np.ndarray:
-    """Eq. 14: the product over cameras of max(1, r_c) / W^2 (cameras independent)."""
+def hidden_by_balls(camera: Camera, positions: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Particles whose line of sight from ``camera`` passes through a ball in front of them (N bool).
+
+    A particle inside a ball is not hidden by that ball.
+    """
+    hidden = np.zeros(len(positions), bool)
+    if len(centres) == 0 or len(positions) == 0:
+        return hidden
+    c = camera.centre
+    to_p = positions - c
+    dist_p = np.linalg.norm(to_p, axis=1)
+    d = to_p / np.maximum(dist_p, 1e-12)[:, None]
+    for centre, r in zip(centres, radii):  # a loop over tracked balls, vectorised over particles
+        v = centre - c
+        along = d @ v
+        perp2 = v @ v - along**2
+        hidden |= (perp2 < r * r) & (along > 0) & (along < dist_p - r)
+    return hidden
+
+
+def likelihood(
+    cameras: Sequence[Camera],
+    integrals: Sequence[np.ndarray],
+    positions: np.ndarray,
+    window: int,
+    occluders: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """Eq. 14: the product over cameras of max(1, r_c) / W^2 (cameras independent).
+
+    With ``occluders`` (centres B x 3, radii B) of tracked balls, a camera whose
+    view of a particle is blocked by one of them says nothing about it (factor
+    1): the ball in front, not the particle, decides what that camera sees.
+    """
     out = np.ones(len(positions))
     for cam, integ in zip(cameras, integrals):
-        out *= camera_factor(cam, integ, positions, window)
+        f = camera_factor(cam, integ, positions, window)
+        if occluders is not None:
+            f = np.where(hidden_by_balls(cam, positions, *occluders), 1.0, f)
+        out *= f
     return out

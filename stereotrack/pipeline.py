@@ -21,7 +21,7 @@ from .config import Config
 from .console import Progress
 from .errors import StereotrackError
 from .explain import ExplainSettings, explain
-from .population import Population
+from .population import Population, TrackedBalls
 from .recording import FramePair
 from .results import FrameResult, Object3D, ParticleSet, Rays, Sink
 from .tracks import TrackManager
@@ -83,14 +83,19 @@ class Tracker:
         }
         t2 = time.perf_counter()
         timings["blobs"] = 1e3 * (t2 - t1)
+        predicted = [tr for tr in self.identities.predicted(now) if tr.state == "confirmed"]
+        radius = {t.name: t.radius for t in self.config.targets}
+        centres = np.array([tr.position for tr in predicted]).reshape(-1, 3)
+        radii = np.array([radius[tr.target] for tr in predicted])
+        ids = np.array([tr.track_id for tr in predicted], dtype=int)
         states = {}
         for t in self.config.targets:
-            states[t.name] = self.populations[t.name].step([cm.integrals[t.name] for cm in cmasks], blobs[t.name], dt)
+            balls = TrackedBalls(centres, radii, ids, np.array([tr.target != t.name for tr in predicted], dtype=bool))
+            states[t.name] = self.populations[t.name].step([cm.integrals[t.name] for cm in cmasks], blobs[t.name], dt, balls)
         t3 = time.perf_counter()
         timings["particles"] = 1e3 * (t3 - t2)
         objects: list[Object3D] = []
         particle_sets = []
-        predicted = [tr for tr in self.identities.predicted(now) if tr.state == "confirmed"]
         for t in self.config.targets:
             st = states[t.name]
             cl = cluster_particles(st.positions, st.weights, st.likelihoods, cams, self.cluster_settings[t.name], self.prev_means[t.name], self.cluster_rng)
@@ -104,7 +109,7 @@ class Tracker:
         t4 = time.perf_counter()
         timings["clusters"] = 1e3 * (t4 - t3)
         tracks = self.identities.update(objects, now)
-        self._lend_velocities(tracks)
+        self._follow_tracks(tracks)
         t5 = time.perf_counter()
         timings["tracks"] = 1e3 * (t5 - t4)
         timings["step"] = 1e3 * (t5 - t0)
@@ -114,22 +119,25 @@ class Tracker:
             frame=pair, particles=tuple(particle_sets), objects=tuple(objects), tracks=tracks, rays=rays, masks=masks, timings_ms=timings
         )
 
-    def _lend_velocities(self, tracks) -> None:
-        """Particles near a live track drift with its velocity in the next step (motion beyond the random walk)."""
+    def _follow_tracks(self, tracks) -> None:
+        """Particles near a live track follow it: its velocity drifts them in the next step (beyond the
+        random walk) and its id marks whose ball they are (for exclusion)."""
         for t in self.config.targets:
             pop = self.populations[t.name]
             if pop.state is None:
                 continue
             mine = [tr for tr in tracks if tr.target == t.name]
             vel = np.zeros_like(pop.state.positions)
+            owners = np.full(len(vel), -1)
             if mine:
                 centres = np.array([tr.position for tr in mine])
                 d2 = ((pop.state.positions[:, None, :] - centres[None]) ** 2).sum(-1)
                 nearest = d2.argmin(axis=1)
                 close = d2[np.arange(len(nearest)), nearest] < (3 * t.radius) ** 2 + 0.0025
-                v = np.array([tr.velocity for tr in mine])
-                vel[close] = v[nearest[close]]
-            pop.set_velocities(vel)
+                owners[close] = np.array([tr.track_id for tr in mine])[nearest[close]]
+                if self.config.tracker.particle_velocity:
+                    vel[close] = np.array([tr.velocity for tr in mine])[nearest[close]]
+            pop.follow_tracks(vel, owners)
 
     def _rays(self, blobs: dict[str, list[Blobs]]) -> tuple[Rays, ...]:
         out = []

@@ -26,6 +26,16 @@ from .likelihood import likelihood
 
 
 @dataclass(frozen=True, eq=False)
+class TrackedBalls:
+    """The balls the tracks predict for this frame (all targets): for exclusion and occlusion."""
+
+    centres: np.ndarray  # B x 3
+    radii: np.ndarray  # B
+    track_ids: np.ndarray  # B
+    other_colour: np.ndarray  # B bool: the ball is of another target than this population's
+
+
+@dataclass(frozen=True, eq=False)
 class PopulationState:
     """One target's particles after a step."""
 
@@ -34,6 +44,7 @@ class PopulationState:
     weights: np.ndarray  # N, summing to 1
     likelihoods: np.ndarray  # N, eq. 14 values (1 = full windows in every camera)
     abductive: np.ndarray  # N bool
+    owners: np.ndarray | None = None  # N track id a particle follows (-1: none), set after tracking
 
 
 def split_counts(n: int, alpha: float) -> tuple[int, int]:
@@ -85,9 +96,9 @@ class Population:
         integrals: Sequence[np.ndarray],
         blobs: Sequence[Blobs],
         dt: float,
-        velocities: np.ndarray | None = None,
+        balls: TrackedBalls | None = None,
     ) -> PopulationState:
-        """Advance one frame. ``velocities`` (N x 3) replaces the particles' drift, e.g. from tracks."""
+        """Advance one frame. ``balls``: tracked balls for exclusion and occlusion (seed 000's blocking)."""
         s = self.settings
         n_seq, n_abd = split_counts(s.particles, s.alpha)
         rng = self.rng
@@ -97,29 +108,40 @@ class Population:
                 seq_vel = np.zeros_like(seq)
             else:
                 idx = systematic_indices(self.state.weights, n_seq, rng)
-                vel = self.state.velocities if velocities is None else velocities
-                seq_vel = vel[idx]
+                seq_vel = self.state.velocities[idx]
                 seq = self.state.positions[idx] + seq_vel * dt + rng.normal(0.0, s.motion_sigma, (n_seq, 3))
+                if self.state.owners is not None:
+                    seq_owner = self.state.owners[idx]
         else:
             seq, seq_vel = np.zeros((0, 3)), np.zeros((0, 3))
         abd = self._abductive(blobs, n_abd) if n_abd else np.zeros((0, 3))
         positions = np.vstack([seq, abd])
-        lik = likelihood(self.cameras, integrals, positions, s.window)
+        # Only a ball of another colour can hide a particle unfairly: one of the same colour fills
+        # the window anyway, and eq. 14 already scores that view as a match.
+        occluders = None
+        if balls is not None and s.occlusion and balls.other_colour.any():
+            occluders = (balls.centres[balls.other_colour], balls.radii[balls.other_colour])
+        lik = likelihood(self.cameras, integrals, positions, s.window, occluders)
+        if balls is not None and s.exclusion and len(balls.centres) and n_seq and self.state is not None and self.state.owners is not None:
+            # Two balls cannot share space: a particle following one track dies inside another's ball.
+            d2 = ((seq[:, None, :] - balls.centres[None]) ** 2).sum(-1)
+            intruder = (d2 < balls.radii[None] ** 2) & (seq_owner[:, None] >= 0) & (seq_owner[:, None] != balls.track_ids[None])
+            lik[:n_seq] = np.where(intruder.any(axis=1), 0.0, lik[:n_seq])
         weights = np.empty(len(positions))
         alpha_eff = 0.0 if n_seq == 0 else s.alpha
         parts = [(slice(0, n_seq), 1.0 - alpha_eff if n_abd else 1.0), (slice(n_seq, None), alpha_eff if n_seq else 1.0)]
         for part, share in parts:
             total = lik[part].sum()
             if lik[part].size:
-                weights[part] = share * lik[part] / total
+                weights[part] = share * lik[part] / total if total > 0 else share / lik[part].size
         weights /= weights.sum()
         velocities_out = np.vstack([seq_vel, np.zeros((n_abd, 3))])
         abductive = np.r_[np.zeros(n_seq, bool), np.ones(n_abd, bool)]
         self.state = PopulationState(positions, velocities_out, weights, lik, abductive)
         return self.state
 
-    def set_velocities(self, velocities: np.ndarray) -> None:
-        """Give the current particles a drift (metres per second), used by the next step."""
+    def follow_tracks(self, velocities: np.ndarray, owners: np.ndarray) -> None:
+        """Give the current particles the velocity (m/s) and id of the track each follows, for the next step."""
         if self.state is not None:
             st = self.state
-            self.state = PopulationState(st.positions, velocities, st.weights, st.likelihoods, st.abductive)
+            self.state = PopulationState(st.positions, velocities, st.weights, st.likelihoods, st.abductive, owners)

@@ -119,3 +119,41 @@ def test_wrong_image_size_is_a_clear_error():
     small = tuple(img[:240, :320] for img in images)
     with pytest.raises(StereotrackError, match="320x240 but the calibration says 640x480"):
         tracker.step(FramePair(0, small, (0.0, 0.0)))
+
+
+def _crossing_two_colours(occlusion: bool):
+    from dataclasses import replace
+
+    from stereotrack.synth import BallSpec, RigSpec, SceneSpec
+    from stereotrack.trajectories import Line
+
+    near = Line((-0.3, 1.2, 0.0), (0.3, 1.2, 0.0), period=4.0)
+    far = Line((0.3, 1.8, 0.02), (-0.3, 1.8, 0.02), period=4.0)
+    spec = SceneSpec("crossing2", (BallSpec(near, colour="orange"), BallSpec(far, colour="pink")), RigSpec(), 30.0, 60)
+    renderer = SceneRenderer(spec)
+    config = spec.config()
+    tracker = Tracker(renderer.rig, replace(config, tracker=replace(config.tracker, occlusion=occlusion)))
+    misses, ids, overlap = 0, set(), 0
+    for i in range(60):
+        images, truth = renderer.render(i)
+        res = tracker.step(FramePair(i, tuple(images), (renderer.time(i),) * 2))
+        balls = np.array([row[1:4] for row in truth])
+        for cam in renderer.rig.cameras:  # the orange ball covers part of the pink one in this view
+            uv, _ = cam.project(balls)
+            r_px = cam.K[0, 0] * 0.035 / cam.depth(balls)
+            overlap += np.linalg.norm(uv[0] - uv[1]) < r_px.sum()
+        pink = [tr for tr in res.confirmed if tr.target == "pink" and np.linalg.norm(tr.position - balls[1]) < 0.1]
+        if i >= 5:
+            misses += not pink
+            ids.update(tr.track_id for tr in pink)
+    return misses, ids, overlap
+
+
+def test_a_ball_partly_hidden_by_a_ball_of_another_colour_keeps_its_track():
+    """Crossing in depth: an orange ball passes in front of a pink one. With the occlusion-aware
+    likelihood the view whose window the orange ball covers does not punish the pink ball."""
+    misses, ids, overlap = _crossing_two_colours(occlusion=True)
+    assert overlap >= 5  # the scene really overlaps the two balls in a view
+    assert misses <= 2 and len(ids) == 1, (misses, ids)
+    misses_plain, _, _ = _crossing_two_colours(occlusion=False)
+    assert misses <= misses_plain

@@ -70,3 +70,24 @@ def test_alpha_one_puts_every_particle_on_a_blob_ray():
         v = np.clip(np.rint(uv[:, 1]).astype(int), 0, cam.height - 1)
         on_disc |= ok & (m[v, u] == 1)
     assert on_disc.all()
+
+
+def test_exclusion_kills_particles_of_one_track_inside_another_ball():
+    from stereotrack.population import TrackedBalls
+
+    rig = default_rig()
+    masks, integrals = disc_masks(rig, BALLS)
+    blobs = [find_blobs(m) for m in masks]
+    pop = Population(rig.cameras, TrackerSettings(particles=1000, alpha=0.0, motion_sigma=0.0), RADIUS, np.random.default_rng(0))
+    pop.step(integrals, blobs, dt=1 / 30)
+    # Pretend every particle follows track 1 while track 2's ball sits on ball 0.
+    pop.follow_tracks(np.zeros((1000, 3)), np.full(1000, 1))
+    pop.state = type(pop.state)(np.repeat(BALLS[:1], 1000, axis=0), pop.state.velocities, np.full(1000, 1e-3), pop.state.likelihoods, pop.state.abductive, pop.state.owners)
+    balls = TrackedBalls(BALLS[:1], np.array([RADIUS]), np.array([2]), np.array([False]))
+    state = pop.step(integrals, blobs, dt=1 / 30, balls=balls)
+    assert state.weights.sum() == pytest.approx(1.0)
+    assert np.allclose(state.weights, 1e-3)  # every particle was an intruder: all zero, renormalised to uniform
+    # With the ball being their own track, nothing happens to them.
+    pop.follow_tracks(np.zeros((1000, 3)), np.full(1000, 2))
+    state = pop.step(integrals, blobs, dt=1 / 30, balls=balls)
+    assert state.likelihoods.min() > 0.5
