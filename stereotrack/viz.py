@@ -9,8 +9,7 @@ Entity layout (what the README's viewer section explains)::
     world/cameras/<cam>            Transform3D camera-from-world (OpenCV R, t) + Pinhole (K)
     world/cameras/<cam>/image      the camera image (JPEG or raw)
     world/cameras/<cam>/mask       colour masks, one class id per target (optional)
-    world/cameras/<cam>/objects    clusters projected into the image (points)
-    world/cameras/<cam>/windows    the ball's image footprint around each object (boxes)
+    world/cameras/<cam>/objects    clusters projected into the image: boxes of the ball's image size
     world/cameras/<cam>/tracks     confirmed tracks projected into the image, labelled
     world/particles/<target>       particles, coloured by cluster; class 0 sequential, 1 abductive
     world/rays/<target>/<cam>      abduction viewing rays (optional)
@@ -28,10 +27,12 @@ since the first logged frame, from the pair's capture timestamps).
 from __future__ import annotations
 
 import argparse
+import queue
 import shutil
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -58,6 +59,8 @@ PALETTE = np.array(
 )
 UNCLUSTERED = np.array([150, 150, 150], dtype=np.uint8)
 SEQUENTIAL, ABDUCTIVE = 0, 1  # particle class ids
+SERIES_BATCH = 10  # logged frames per batch of time-series values (a third of a second at 30 frames/s)
+QUEUE = 8  # frames the logging thread may lag behind the tracker before write() waits
 
 
 @dataclass(frozen=True)
@@ -233,6 +236,71 @@ def normalise_connect_url(url: str) -> str:
 # --------------------------------------------------------------------------- the sink
 
 
+class Trail:
+    """One track's recent positions in growing arrays, trimmed to the trail's length in seconds."""
+
+    def __init__(self) -> None:
+        self.times = np.zeros(64)
+        self.points = np.zeros((64, 3))
+        self.start = self.end = 0
+
+    def add(self, t: float, position: np.ndarray, seconds: float) -> None:
+        if self.end == len(self.times):  # full: drop what is trimmed, grow if still needed
+            n = self.end - self.start
+            size = max(64, 2 * n)
+            times, points = np.zeros(size), np.zeros((size, 3))
+            times[:n], points[:n] = self.times[self.start : self.end], self.points[self.start : self.end]
+            self.times, self.points, self.start, self.end = times, points, 0, n
+        self.times[self.end] = t
+        self.points[self.end] = position
+        self.end += 1
+        self.start += int(np.searchsorted(self.times[self.start : self.end], t - seconds, side="left"))
+
+    def __len__(self) -> int:
+        return self.end - self.start
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.times[self.start : self.end], self.points[self.start : self.end]
+
+
+class SeriesBuffer:
+    """Time-series values gathered per entity and sent as columns every few frames.
+
+    One ``send_columns`` per series per batch instead of one ``log`` call per
+    value and frame: the time series are most of the log calls, and each call
+    costs more than the numbers it carries.
+    """
+
+    def __init__(self, rr: Any, rec: Any, frames_per_batch: int):
+        self.rr, self.rec, self.frames_per_batch = rr, rec, frames_per_batch
+        self.series: dict[str, tuple[list[int], list[float], list[float]]] = {}
+        self.frames_pending = 0
+
+    def add(self, path: str, frame: int, t: float, value: float) -> None:
+        frames, times, values = self.series.setdefault(path, ([], [], []))
+        frames.append(frame)
+        times.append(t)
+        values.append(float(value))
+
+    def end_frame(self) -> None:
+        self.frames_pending += 1
+        if self.frames_pending >= self.frames_per_batch:
+            self.flush()
+
+    def flush(self) -> None:
+        rr = self.rr
+        for path, (frames, times, values) in self.series.items():
+            if frames:
+                self.rec.send_columns(
+                    path,
+                    indexes=[rr.TimeColumn("frame", sequence=frames), rr.TimeColumn("capture_time", duration=times)],
+                    columns=rr.Scalars.columns(scalars=values),
+                )
+        self.series.clear()
+        self.frames_pending = 0
+
+
+
 class RerunSink:
     """Logs every FrameResult to rerun (a Sink, see results.py).
 
@@ -265,9 +333,14 @@ class RerunSink:
         self._t0: float | None = None
         self._last_wall: float | None = None
         self._rates: deque[float] = deque(maxlen=30)  # wall-clock time between written frames, for frames/s
-        self._trails: dict[int, deque[tuple[float, np.ndarray]]] = {}
+        self._trails: dict[int, Trail] = {}
         self._closed = False
         self.web_url: str | None = None
+        # Logging runs in its own thread so that it overlaps the tracker (JPEG encoding and rerun's
+        # Rust side release the GIL); the bounded queue keeps every frame and caps the lag.
+        self._queue: queue.Queue = queue.Queue(maxsize=QUEUE)
+        self._worker_error: BaseException | None = None
+        self._worker = threading.Thread(target=self._work, name="rerun-sink", daemon=True)
 
         self.rec = rr.RecordingStream(APPLICATION_ID)
         if recording_name:
@@ -275,6 +348,8 @@ class RerunSink:
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
         self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
         self._log_static()
+        self._series = SeriesBuffer(rr, self.rec, SERIES_BATCH)
+        self._worker.start()
 
     # ----------------------------------------------------------------- setup
 
@@ -349,21 +424,56 @@ class RerunSink:
     # ----------------------------------------------------------------- per frame
 
     def write(self, result: FrameResult) -> None:
+        """Hand the frame to the logging thread; blocks only when it is QUEUE frames behind."""
+        self._check_worker()
         frame = result.frame
         if self._t0 is None:
             self._t0 = frame.time
-        now = frame.time - self._t0
-        self._follow_trails(result, now)
         self._n_written += 1
-        if (self._n_written - 1) % self.settings.every:
-            return
-        wall = time.perf_counter()
-        if self._last_wall is not None:
-            self._rates.append((wall - self._last_wall) / self.settings.every)
-        self._last_wall = wall
+        log = (self._n_written - 1) % self.settings.every == 0
+        fps = None
+        if log:  # the loop's pace, measured here in the tracker's thread
+            wall = time.perf_counter()
+            if self._last_wall is not None:
+                self._rates.append((wall - self._last_wall) / self.settings.every)
+                fps = len(self._rates) / max(sum(self._rates), 1e-9)
+            self._last_wall = wall
+        item = (result, frame.time - self._t0, log, fps)
+        while True:
+            try:
+                self._queue.put(item, timeout=0.5)
+                return
+            except queue.Full:
+                self._check_worker()
 
+    def _check_worker(self) -> None:
+        if self._worker_error is not None:
+            error, self._worker_error = self._worker_error, None
+            raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error
+        if self._closed:
+            raise RuntimeError("RerunSink.write after close")
+
+    def _work(self) -> None:
+        """The logging thread: rerun's time is per thread, so every timed log call happens here."""
+        while True:
+            item = self._queue.get()
+            if item is None:
+                if self._worker_error is None:
+                    self._series.flush()
+                return
+            if self._worker_error is not None:
+                continue  # keep draining so the tracker never blocks on a dead logger
+            try:
+                self._log_frame(*item)
+            except Exception as exc:  # reported to the tracker's thread on its next write or close
+                self._worker_error = exc
+
+    def _log_frame(self, result: FrameResult, now: float, log: bool, fps: float | None) -> None:
+        self._follow_trails(result, now)
+        if not log:
+            return
         rec = self.rec
-        rec.set_time("frame", sequence=frame.index)
+        rec.set_time("frame", sequence=result.frame.index)
         rec.set_time("capture_time", duration=now)
         offsets = self._object_offsets(result)
         self._log_cameras(result, offsets)
@@ -372,9 +482,10 @@ class RerunSink:
         self._log_tracks(result, now)
         if self.settings.rays:
             self._log_rays(result)
-        self._log_stats(result)
+        self._log_stats(result, now, fps)
         if self._truth is not None:
-            self._log_truth(result)
+            self._log_truth(result, now)
+        self._series.end_frame()
 
     def _object_offsets(self, result: FrameResult) -> dict[str, int]:
         """Index of each target's first object in result.objects: particle labels are per target."""
@@ -411,15 +522,11 @@ class RerunSink:
                     rec.log(f"{path}/image", rr.Image(img, color_model="BGR"))
             if s.masks:
                 self._log_mask(result, cam.name, path)
-            # Objects: centre and the ball's expected image footprint (at least the colour window W).
+            # Objects: a box of the ball's expected image size (at least the colour window W) around its projection.
             uv, vis = self._visible(cam, positions)
             depth = cam.depth(positions)
             half = np.maximum(cam.K[0, 0] * radii / np.where(depth > 0, depth, np.inf), half_window)
-            rec.log(f"{path}/objects", rr.Points2D(uv[vis], colors=obj_colours[vis], radii=2.0))
-            rec.log(
-                f"{path}/windows",
-                rr.Boxes2D(centers=uv[vis], half_sizes=np.repeat(half[vis, None], 2, axis=1), colors=obj_colours[vis]),
-            )
+            rec.log(f"{path}/objects", rr.Boxes2D(centers=uv[vis], half_sizes=np.repeat(half[vis, None], 2, axis=1), colors=obj_colours[vis]))
             uv, vis = self._visible(cam, track_pos)
             labels = [f"#{t.track_id}" for t, v in zip(tracks, vis) if v]
             rec.log(f"{path}/tracks", rr.Points2D(uv[vis], colors=track_colours[vis], radii=4.0, labels=labels))
@@ -474,17 +581,11 @@ class RerunSink:
         )
 
     def _follow_trails(self, result: FrameResult, now: float) -> None:
-        live = set()
+        live = {t.track_id for t in result.tracks}
+        for tid in [tid for tid in self._trails if tid not in live]:
+            del self._trails[tid]
         for t in result.tracks:
-            live.add(t.track_id)
-            self._trails.setdefault(t.track_id, deque()).append((now, np.asarray(t.position, dtype=float)))
-        for tid in list(self._trails):
-            trail = self._trails[tid]
-            if tid not in live:
-                del self._trails[tid]
-                continue
-            while trail and now - trail[0][0] > self.settings.trail_seconds:
-                trail.popleft()
+            self._trails.setdefault(t.track_id, Trail()).add(now, t.position, self.settings.trail_seconds)
 
     def _log_tracks(self, result: FrameResult, now: float) -> None:
         rr, rec = self.rr, self.rec
@@ -507,7 +608,7 @@ class RerunSink:
             cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
             evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
             evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
-            quats = _quaternions_xyzw(evecs)
+            quats = quaternions_xyzw(evecs)
             halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
         else:
             quats, halves = np.zeros((0, 4)), np.zeros((0, 3))
@@ -517,14 +618,14 @@ class RerunSink:
         )
         # Fading trails: one two-point strip per step, alpha falling with age.
         segments, seg_colours = [], []
+        fade = max(self.settings.trail_seconds, 1e-9)
         for t, colour in zip(tracks, colours):
             trail = self._trails.get(t.track_id)
-            if not trail or len(trail) < 2:
+            if trail is None or len(trail) < 2:
                 continue
-            times = np.array([p[0] for p in trail])
-            pts = np.array([p[1] for p in trail])
+            times, pts = trail.arrays()
             segments.append(np.stack([pts[:-1], pts[1:]], axis=1))
-            seg_colours.append(with_alpha(colour, 1.0 - (now - times[1:]) / max(self.settings.trail_seconds, 1e-9)))
+            seg_colours.append(with_alpha(colour, 1.0 - (now - times[1:]) / fade))
         strips = np.concatenate(segments) if segments else np.zeros((0, 2, 3))
         seg_c = np.concatenate(seg_colours) if seg_colours else np.zeros((0, 4), np.uint8)
         rec.log("world/tracks/trails", rr.LineStrips3D(strips, colors=seg_c, radii=0.004))
@@ -538,23 +639,25 @@ class RerunSink:
                 self.rr.LineStrips3D(strips, colors=with_alpha(self._colour(rays.target), np.full(len(strips), 0.6)), radii=0.002),
             )
 
-    def _log_stats(self, result: FrameResult) -> None:
-        rr, rec = self.rr, self.rec
-        for t in result.confirmed:
-            rec.log(f"stats/counts/particles/track_{t.track_id}", rr.Scalars(float(t.n_particles)))
-        for name in self._targets:
-            rec.log(f"stats/counts/objects/{name}", rr.Scalars(float(sum(o.target == name for o in result.objects))))
-        rec.log("stats/counts/confirmed_tracks", rr.Scalars(float(len(result.confirmed))))
-        for stage, ms in result.timings_ms.items():
-            rec.log(f"stats/timing_ms/{stage}", rr.Scalars(float(ms)))
-        if self._rates:  # the whole loop (decode, track, sinks), over the last logged frames
-            rec.log("stats/rate/frames_per_s", rr.Scalars(len(self._rates) / max(sum(self._rates), 1e-9)))
-        if result.timings_ms.get("step"):  # the tracker's own step alone
-            rec.log("stats/rate/tracker_frames_per_s", rr.Scalars(1000.0 / result.timings_ms["step"]))
-        if result.latency_s is not None:
-            rec.log("stats/rate/latency_ms", rr.Scalars(1000.0 * result.latency_s))
+    def _log_stats(self, result: FrameResult, now: float, fps: float | None) -> None:
+        def add(path: str, value: float) -> None:
+            self._series.add(path, result.frame.index, now, value)
 
-    def _log_truth(self, result: FrameResult) -> None:
+        for t in result.confirmed:
+            add(f"stats/counts/particles/track_{t.track_id}", t.n_particles)
+        for name in self._targets:
+            add(f"stats/counts/objects/{name}", sum(o.target == name for o in result.objects))
+        add("stats/counts/confirmed_tracks", len(result.confirmed))
+        for stage, ms in result.timings_ms.items():
+            add(f"stats/timing_ms/{stage}", ms)
+        if fps is not None:  # the whole loop (decode, track, sinks), over the last logged frames
+            add("stats/rate/frames_per_s", fps)
+        if result.timings_ms.get("step"):  # the tracker's own step alone
+            add("stats/rate/tracker_frames_per_s", 1000.0 / result.timings_ms["step"])
+        if result.latency_s is not None:
+            add("stats/rate/latency_ms", 1000.0 * result.latency_s)
+
+    def _log_truth(self, result: FrameResult, now: float) -> None:
         truth, frames = self._truth
         lo, hi = np.searchsorted(frames, [result.frame.index, result.frame.index + 1])
         rows = truth[lo:hi]
@@ -566,8 +669,8 @@ class RerunSink:
         if len(rows) and tracks:
             est = np.array([t.position for t in tracks])
             dist = np.linalg.norm(est[:, None, :] - rows[None, :, 2:5], axis=2).min(axis=1)
-            self.rec.log("stats/error_mm/mean", self.rr.Scalars(1000.0 * float(dist.mean())))
-            self.rec.log("stats/error_mm/max", self.rr.Scalars(1000.0 * float(dist.max())))
+            self._series.add("stats/error_mm/mean", result.frame.index, now, 1000.0 * float(dist.mean()))
+            self._series.add("stats/error_mm/max", result.frame.index, now, 1000.0 * float(dist.max()))
 
     # ----------------------------------------------------------------- end
 
@@ -578,6 +681,8 @@ class RerunSink:
         self._closed = True
         interrupted = sys.exc_info()[0] is not None
         try:
+            self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
+            self._worker.join()
             self.rec.flush()
             if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:
                 info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
@@ -595,6 +700,9 @@ class RerunSink:
                         proc.wait(5)
                     except subprocess.TimeoutExpired:
                         proc.kill()
+        if self._worker_error is not None:
+            error = self._worker_error
+            raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error
 
     @property
     def rrd_path(self) -> Path | None:
@@ -608,11 +716,32 @@ class RerunSink:
         self.close()
 
 
-def _quaternions_xyzw(R: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N x 3 x 3) -> unit quaternions (N x 4, x y z w), vectorised."""
-    from scipy.spatial.transform import Rotation
+def quaternions_xyzw(R: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N x 3 x 3) -> unit quaternions (N x 4, x y z w), vectorised.
 
-    return Rotation.from_matrix(R).as_quat() if len(R) else np.zeros((0, 4))
+    Shepperd's method: each matrix uses the formula built on its largest of
+    w, x, y, z, so no division by a small number (scipy's Rotation does the
+    same, at ~20x the cost for a handful of matrices).
+    """
+    R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
+    m00, m11, m22 = R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]
+    d21, d02, d10 = R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]
+    s01, s02, s12 = R[:, 0, 1] + R[:, 1, 0], R[:, 0, 2] + R[:, 2, 0], R[:, 1, 2] + R[:, 2, 1]
+    diag = np.stack([m00 + m11 + m22, m00 - m11 - m22, m11 - m00 - m22, m22 - m00 - m11], axis=1)
+    case = diag.argmax(axis=1)
+    s = 2.0 * np.sqrt(np.maximum(1.0 + diag[np.arange(len(R)), case], 1e-300))  # 4 x the largest component
+    candidates = np.stack(
+        [
+            np.stack([d21, d02, d10, s * s / 4], axis=1),  # w largest
+            np.stack([s * s / 4, s01, s02, d21], axis=1),  # x largest
+            np.stack([s01, s * s / 4, s12, d02], axis=1),  # y largest
+            np.stack([s02, s12, s * s / 4, d10], axis=1),  # z largest
+        ],
+        axis=1,
+    )
+    q = candidates[np.arange(len(R)), case] / s[:, None]
+    q *= np.where(q[:, 3:4] < 0, -1.0, 1.0)  # w >= 0, one of the two equal quaternions
+    return q
 
 
 def _free_port() -> int:
