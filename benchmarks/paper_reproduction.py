@@ -397,7 +397,8 @@ def git_revision() -> str:
         dirty = subprocess.run(["git", "status", "--porcelain", "--", "stereotrack"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return ""
-    return head + (" + local changes" if dirty else "")
+    changed = sorted({Path(line[3:]).name for line in dirty.splitlines()})
+    return head + (f" + local changes to {', '.join(changed)}" if changed else "")
 
 
 # --------------------------------------------------------------------------- the report
@@ -749,7 +750,8 @@ def write_report(rep: Reproduction, path: Path) -> None:
         "- Speed: the paper's alpha = 0 skipped the full-image colour filtering that only its abduction needed, hence 143 -> 29 it/s. "
         "Our likelihood reads its window counts from an integral image of the full-image mask (O(1) per particle), so the whole "
         "image is filtered every frame whatever alpha is and an abductive particle costs about as much as a sequential one: alpha "
-        "barely changes the rate. Single slow rows are load from other jobs on the shared machine.",
+        "barely changes the rate. A single slow row (a different alpha from one run to the next) is load from other jobs on the "
+        "shared machine.",
         "",
         "## Section IV-C: new balls appearing",
         "",
