@@ -8,7 +8,7 @@ flushes the file and writes its footer, is). Runs alternate
 (plain, rerun, plain, rerun, ...) so the shared machine's noise hits both
 alike; the figure is the ratio of the medians.
 
-    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 3]
+    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6]
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class TimedSink:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=90)
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=6)
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
     args = ap.parse_args()
 

@@ -68,7 +68,7 @@ class VizSettings:
     """What the viewer logs, and how much (cost control)."""
 
     every: int = 1  # log every N-th frame (trails still follow every frame)
-    max_particles: int = 1000  # per target and frame; more are subsampled at random (seeded)
+    max_particles: int = 500  # per target and frame; more are subsampled at random (seeded)
     images: bool = True  # log the camera images
     jpeg_quality: int = 75  # JPEG-compress images at this quality (1..100); 0 logs raw BGR pixels
     masks: bool = False  # log the colour masks as a layer over each image
@@ -510,6 +510,8 @@ class RerunSink:
         tracks = result.confirmed
         track_pos = np.array([t.position for t in tracks]).reshape(-1, 3)
         track_colours = np.array([self._colour(t.target) for t in tracks], dtype=np.uint8).reshape(-1, 3)
+        track_labels = [f"#{t.track_id}" for t in tracks]
+        both, n_obj = np.vstack([positions, track_pos]), len(positions)
         half_window = self.config.tracker.window / 2
         for ci, cam in enumerate(self.rig.cameras):
             path = f"world/cameras/{cam.name}"
@@ -522,20 +524,25 @@ class RerunSink:
                     rec.log(f"{path}/image", rr.Image(img, color_model="BGR"))
             if s.masks:
                 self._log_mask(result, cam.name, path)
+            # One projection per camera for objects and tracks together.
+            uv, depth, vis = self._visible(cam, both)
             # Objects: a box of the ball's expected image size (at least the colour window W) around its projection.
-            uv, vis = self._visible(cam, positions)
-            depth = cam.depth(positions)
-            half = np.maximum(cam.K[0, 0] * radii / np.where(depth > 0, depth, np.inf), half_window)
-            rec.log(f"{path}/objects", rr.Boxes2D(centers=uv[vis], half_sizes=np.repeat(half[vis, None], 2, axis=1), colors=obj_colours[vis]))
-            uv, vis = self._visible(cam, track_pos)
-            labels = [f"#{t.track_id}" for t, v in zip(tracks, vis) if v]
-            rec.log(f"{path}/tracks", rr.Points2D(uv[vis], colors=track_colours[vis], radii=4.0, labels=labels))
+            o_vis = vis[:n_obj]
+            half = np.maximum(cam.K[0, 0] * radii[o_vis] / depth[:n_obj][o_vis], half_window)
+            rec.log(f"{path}/objects", rr.Boxes2D(centers=uv[:n_obj][o_vis], half_sizes=np.repeat(half[:, None], 2, axis=1), colors=obj_colours[o_vis]))
+            t_vis = vis[n_obj:]
+            labels = [label for label, v in zip(track_labels, t_vis) if v]
+            rec.log(f"{path}/tracks", rr.Points2D(uv[n_obj:][t_vis], colors=track_colours[t_vis], radii=4.0, labels=labels))
 
     @staticmethod
-    def _visible(cam, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        uv, front = cam.project(points)
+    def _visible(cam, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pixels, depths, and whether each point is in front of the camera and inside its image."""
+        pc = cam.to_camera(points)
+        depth = pc[:, 2]
+        front = depth > 1e-9
+        uv = cam.distort_normalised(pc[:, :2] / np.where(front, depth, 1.0)[:, None])
         inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
-        return np.nan_to_num(uv), inside
+        return uv, depth, inside
 
     def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
         label = None

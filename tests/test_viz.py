@@ -132,7 +132,8 @@ def latest(rows: list[dict], component: str, frame: int):
 @pytest.fixture(scope="module")
 def run12(tmp_path_factory):
     path = tmp_path_factory.mktemp("viz") / "run.rrd"
-    rig, results = log_run(path, truth=truth_for(range(12)) + np.array([0, 0, 0.01, 0, 0]))
+    # max_particles above the 600 per target: every particle is in the file
+    rig, results = log_run(path, settings=VizSettings(max_particles=1000), truth=truth_for(range(12)) + np.array([0, 0, 0.01, 0, 0]))
     return path, rig, results, read_rrd(path)
 
 
