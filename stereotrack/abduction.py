@@ -56,13 +56,18 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     return Blobs(centres, areas, radii, labels, label_blob, scale)
 
 
-def _local_maxima(hist: np.ndarray, min_count: float) -> np.ndarray:
-    """Indices of plateau-aware local maxima of a smoothed 1D histogram."""
+def _local_maxima(hist: np.ndarray, min_count: float, min_gap: int = 5) -> np.ndarray:
+    """Indices of local maxima of a smoothed 1D histogram, at least ``min_gap`` apart (the highest wins)."""
     k = np.array([1, 4, 6, 4, 1], float) / 16
     s = np.convolve(hist.astype(float), k, "same")
     left = np.r_[-np.inf, s[:-1]]
     right = np.r_[s[1:], -np.inf]
-    return np.flatnonzero((s >= left) & (s > right) & (s >= min_count))
+    peaks = np.flatnonzero((s >= left) & (s > right) & (s >= min_count))
+    kept: list[int] = []
+    for i in peaks[np.argsort(-s[peaks], kind="stable")]:
+        if all(abs(i - j) >= min_gap for j in kept):
+            kept.append(int(i))
+    return np.array(sorted(kept), dtype=int)
 
 
 def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
@@ -83,10 +88,19 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     y0 = np.clip(cand[:, 1] - 2, 0, h)
     y1 = np.clip(cand[:, 1] + 3, 0, h)
     count = integ[y1, x1] - integ[y0, x1] - integ[y1, x0] + integ[y0, x0]
-    cand = cand[count > 0]
-    # This method does not measure a blob's size: depth_range_from_size leaves these rays at [d_min, d_max].
-    radii = np.full(len(cand), np.nan)
-    return Blobs(cand.astype(float), count[count > 0].astype(float), radii)
+    cand, count = cand[count > 0], count[count > 0]
+    # Size of the blob under each candidate: half the longest run of colour through it along
+    # its row or its column (a loop over candidates, a handful, vectorised along the lines).
+    radii = np.empty(len(cand))
+    for i, (x, y) in enumerate(cand):
+        runs = []
+        for line, at in ((mask[y, :], x), (mask[:, x], y)):
+            off = np.flatnonzero(line == 0)
+            left = off[off < at]
+            right = off[off > at]
+            runs.append((right[0] if len(right) else len(line)) - (left[-1] + 1 if len(left) else 0))
+        radii[i] = 0.5 * max(runs)
+    return Blobs(cand.astype(float), count.astype(float), radii)
 
 
 def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6) -> Blobs:
