@@ -343,6 +343,7 @@ class RerunSink:
         self._worker = threading.Thread(target=self._work, name="rerun-sink", daemon=True)
 
         self.rec = rr.RecordingStream(APPLICATION_ID)
+        self.rec.set_log_time_enabled(False)  # our own two timelines suffice; the wall-clock one doubles each log call's cost
         if recording_name:
             self.rec.send_recording_name(recording_name)
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
