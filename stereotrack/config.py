@@ -64,6 +64,7 @@ class TrackSettings:
     gate: float = 11.34  # Mahalanobis gate on the squared distance (chi-square, 3 dof: 7.81 = 95%, 11.34 = 99%)
     confirm_time: float = 0.1  # seconds of hits before a new track is confirmed (only confirmed tracks go to tracks.csv)
     tentative_time: float = 0.05  # a tentative track unseen for longer than this, seconds, is dropped (clutter)
+    report_coasting: float = 0.07  # seconds a confirmed track missed by the detector is still written, at its prediction
     delete_time: float = 0.5  # a track unseen for longer than this, seconds, is deleted; a ball seen again sooner keeps its id
     accel_noise: float = 30.0  # motion model: white-acceleration spectral density, m^2/s^3 (how fast a ball may change velocity)
     measurement_sigma: float = 0.01  # metres, added to each object's own covariance as measurement noise
@@ -109,6 +110,7 @@ _RANGES.update(
         "confirm_time": (0.0, 60.0),
         "tentative_time": (0.0, 60.0),
         "delete_time": (0.0, 3600.0),
+        "report_coasting": (0.0, 3600.0),
         "accel_noise": (0.0, 1e6),
         "measurement_sigma": (0.0, 10.0),
         "init_speed_sigma": (0.0, 1000.0),

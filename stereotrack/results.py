@@ -48,6 +48,7 @@ class TrackEstimate:
     covariance: np.ndarray  # 3 x 3 position covariance
     state: str  # "tentative", "confirmed" or "coasting"
     n_particles: int = 0
+    reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +75,8 @@ class FrameResult:
 
     @property
     def confirmed(self) -> tuple[TrackEstimate, ...]:
-        return tuple(t for t in self.tracks if t.state == "confirmed")
+        """The tracks a user sees (tracks.csv, the viewer): confirmed ones, and those coasting very briefly."""
+        return tuple(t for t in self.tracks if t.reported)
 
 
 class Sink(Protocol):

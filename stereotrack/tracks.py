@@ -209,9 +209,11 @@ class TrackManager:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
         return time - tr.last_hit > limit + _EPS_TIME
 
-    @staticmethod
-    def _estimate(tr: _Track, x: np.ndarray, P: np.ndarray) -> TrackEstimate:
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
+        # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
+        # still reported, at its predicted position, for at most report_coasting seconds.
+        reported = tr.confirmed and (tr.hit or tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME)
         return TrackEstimate(
             track_id=tr.track_id,
             target=tr.target,
@@ -220,4 +222,5 @@ class TrackManager:
             covariance=P[:3, :3].copy(),
             state=state,
             n_particles=tr.n_particles,
+            reported=bool(reported),
         )

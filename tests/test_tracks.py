@@ -250,3 +250,23 @@ def test_tracks_settings_from_yaml():
     with pytest.raises(StereotrackError, match="tracks.gate"):
         config_from_dict({"tracks": {"gate": -1}}, "c.yaml")
     assert replace(cfg.tracks, up=None).up is None
+
+
+@pytest.mark.parametrize("fps", [15, 30, 60])
+def test_a_briefly_missed_ball_is_still_reported_then_not(fps):
+    """report_coasting (seconds): a confirmed ball the detector misses for a blink stays in tracks.csv."""
+    m = TrackManager(TrackSettings(report_coasting=0.07, delete_time=0.5))
+    t = 0.0
+    for _ in range(int(0.3 * fps)):
+        (tr,) = m.update([obj((0.0, 1.0, 0.0))], t)
+        t += 1 / fps
+    assert tr.reported and tr.state == "confirmed"
+    reported = []
+    for _ in range(int(0.2 * fps)):
+        (tr,) = m.update([], t)
+        reported.append(tr.reported)
+        t += 1 / fps
+        assert tr.state == "coasting"
+    n = sum(reported)
+    assert reported == [True] * n + [False] * (len(reported) - n)  # reported first, then not
+    assert n == int(0.07 * fps + 1e-9)  # as long as the limit in seconds allows, at any frame rate
