@@ -48,6 +48,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=90)
     ap.add_argument("--repeats", type=int, default=6)
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
+    ap.add_argument("--no-images", action="store_true", help="do not log camera images")
     args = ap.parse_args()
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -64,7 +65,7 @@ def main() -> None:
                 tracker = Tracker(rec.rig, config)
                 sinks = []
                 if mode == "rerun":
-                    sinks = [TimedSink(RerunSink(rec.rig, config, VizOutputs(rrd=rrd), VizSettings(every=args.every), truth=truth))]
+                    sinks = [TimedSink(RerunSink(rec.rig, config, VizOutputs(rrd=rrd), VizSettings(every=args.every, images=not args.no_images), truth=truth))]
                 start = time.perf_counter()  # opening the sink (importing rerun, once per run) is not counted; closing it (flush + footer) is
                 run_pipeline(pairs, tracker, sinks, progress=False)
                 times[mode].append(time.perf_counter() - start)
@@ -73,7 +74,7 @@ def main() -> None:
         size_mb = rrd.stat().st_size / 1e6
     fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
     drop = 100 * (1 - fps["rerun"] / fps["plain"])
-    print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median)")
+    print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else 'on'}")
     print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
     print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
     print(f"time in the rerun sink: {statistics.median(sink_ms):.1f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")
