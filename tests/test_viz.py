@@ -77,7 +77,7 @@ def make_result(rig: Rig, frame: int, rng: np.random.Generator, n_particles: int
             est = balls[i] + rng.normal(0, 0.002, 3)
             objects.append(Object3D(target.name, est, np.eye(3) * 1e-4, 1 / len(mine), n_particles // len(mine)))
             cov = np.diag([4e-4, 1e-4, 2.5e-5])
-            tracks.append(TrackEstimate(i + 1, target.name, est, np.zeros(3), cov, "confirmed", n_particles // len(mine)))
+            tracks.append(TrackEstimate(i + 1, target.name, est, np.zeros(3), cov, "confirmed", n_particles // len(mine), reported=True))
     tracks.sort(key=lambda t: t.track_id)  # track i + 1 is ball i
     tracks.append(TrackEstimate(9, "pink", np.array([0.0, 0.0, 2.0]), np.zeros(3), np.eye(3) * 1e-3, "tentative"))
     pair = FramePair(frame, render(rig, balls), (frame / 30.0, frame / 30.0 + 0.001))
