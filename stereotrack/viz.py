@@ -75,6 +75,7 @@ class VizSettings:
     rays: bool = False  # log the abduction's viewing rays
     trail_seconds: float = 2.0  # length of each track's fading trail
     seed: int = 0  # for the particle subsample
+    skip_when_behind: bool = False  # live: skip a frame rather than wait when logging lags (recordings: keep every frame)
 
 
 @dataclass(frozen=True)
@@ -330,6 +331,7 @@ class RerunSink:
         self._truth = self._index_truth(truth)
         self._children: list[subprocess.Popen] = []
         self._n_written = 0
+        self.skipped = 0  # frames not logged because logging lagged (skip_when_behind)
         self._t0: float | None = None
         self._last_wall: float | None = None
         self._rates: deque[float] = deque(maxlen=30)  # wall-clock time between written frames, for frames/s
@@ -440,6 +442,16 @@ class RerunSink:
                 fps = len(self._rates) / max(sum(self._rates), 1e-9)
             self._last_wall = wall
         item = (result, frame.time - self._t0, log, fps)
+        if self.settings.skip_when_behind:
+            if log and self._queue.qsize() > 0:  # the logging thread is still busy: only the trails follow this frame
+                item = (result, item[1], False, None)
+            try:
+                self._queue.put_nowait(item)
+            except queue.Full:  # far behind: not even the trails get this frame
+                item = None
+            if log and (item is None or not item[2]):
+                self.skipped += 1
+            return
         while True:
             try:
                 self._queue.put(item, timeout=0.5)
@@ -816,7 +828,7 @@ def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--viz-trail", metavar="SECONDS", type=_seconds, default=VizSettings.trail_seconds, help="length of the tracks' fading trails (default 2)")
 
 
-def viz_settings_from_args(args: argparse.Namespace, seed: int = 0) -> VizSettings:
+def viz_settings_from_args(args: argparse.Namespace, seed: int = 0, live: bool = False) -> VizSettings:
     return VizSettings(
         every=args.viz_every,
         max_particles=args.viz_max_particles,
@@ -826,6 +838,7 @@ def viz_settings_from_args(args: argparse.Namespace, seed: int = 0) -> VizSettin
         rays=args.viz_rays,
         trail_seconds=args.viz_trail,
         seed=seed,
+        skip_when_behind=live,
     )
 
 
@@ -836,8 +849,13 @@ def make_viz_sink(
     truth: np.ndarray | None = None,
     default_rrd: str | Path | None = None,
     recording_name: str | None = None,
+    live: bool = False,
 ) -> RerunSink | None:
-    """The RerunSink the flags ask for, or None when no viewer output is given (and no default_rrd)."""
+    """The RerunSink the flags ask for, or None when no viewer output is given (and no default_rrd).
+
+    ``live=True`` (live cameras): when logging lags, frames are skipped rather
+    than waited for, so the viewer never holds the tracker back.
+    """
     outputs = VizOutputs(
         rrd=Path(args.rrd) if args.rrd is not None else (Path(default_rrd) if default_rrd else None),
         spawn=args.spawn,
@@ -851,4 +869,4 @@ def make_viz_sink(
         return None
     if outputs.connect:
         normalise_connect_url(outputs.connect)  # a bad URL fails before any work starts
-    return RerunSink(rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed), truth=truth, recording_name=recording_name)
+    return RerunSink(rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed, live=live), truth=truth, recording_name=recording_name)

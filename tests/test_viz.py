@@ -479,3 +479,27 @@ def test_quaternions_match_scipy_for_all_rotations():
     ref = Rotation.from_matrix(R).as_quat()
     same = np.minimum(np.abs(q - ref).max(axis=1), np.abs(q + ref).max(axis=1))  # q and -q are one rotation
     assert same.max() < 1e-9
+
+
+def test_live_sink_skips_frames_rather_than_hold_the_tracker(tmp_path, monkeypatch):
+    rig, rng = make_rig(), np.random.default_rng(0)
+    results = [make_result(rig, f, rng, n_particles=60) for f in range(30)]
+    path = tmp_path / "live.rrd"
+    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(images=False, skip_when_behind=True))
+    slow = sink._log_frame
+
+    def slow_log(result, now, log, fps):  # a logger far slower than the frames come
+        if log:
+            time.sleep(0.05)
+        slow(result, now, log, fps)
+
+    monkeypatch.setattr(sink, "_log_frame", slow_log)
+    start = time.perf_counter()
+    for r in results:
+        sink.write(r)
+    held = time.perf_counter() - start
+    sink.close()
+    assert held < 0.5  # 30 frames at 50 ms of logging each would hold a waiting tracker 1.5 s
+    frames = [r["frame"] for r in read_rrd(path)["world/tracks"]]
+    assert 1 <= len(frames) < 30 and sink.skipped == 30 - len(frames)
+    assert frames == sorted(frames) and frames[0] == 0
