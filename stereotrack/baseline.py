@@ -117,7 +117,7 @@ class BaselineTracker:
         self.config = config
         self.cam_a, self.cam_b = rig.cameras[0], rig.cameras[1]
         self.F = fundamental_matrix(self.cam_a, self.cam_b)
-        self.tracks = TrackManager(config.tracks)
+        self.tracks = TrackManager(config.tracks, rig)
 
     def step(self, frame: FramePair) -> FrameResult:
         self.rig.check_images(frame.images)

@@ -61,7 +61,7 @@ class Tracker:
         self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
-        self.identities = TrackManager(config.tracks)
+        self.identities = TrackManager(config.tracks, rig)
         self.last_time: float | None = None
 
     def step(self, pair: FramePair) -> FrameResult:

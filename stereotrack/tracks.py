@@ -30,6 +30,7 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .camera import Rig
 from .config import TrackSettings
 from .results import Object3D, TrackEstimate
 
@@ -52,6 +53,7 @@ class _Track:
     last_hit: float  # time of the latest hit
     confirmed: bool = False
     hit: bool = True  # matched in the latest update
+    contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
     n_particles: int = 0
 
 
@@ -83,8 +85,10 @@ class TrackManager:
     ...     tracks = manager.update(objects, frame.time)
     """
 
-    def __init__(self, settings: TrackSettings | None = None):
+    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None):
+        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view."""
         self.settings = settings or TrackSettings()
+        self.rig = rig
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
@@ -117,6 +121,7 @@ class TrackManager:
             tr.x, tr.P = self._predict(tr, time)
             tr.time = time
             tr.hit = False
+            tr.contested = False
         by_target: dict[str, list[int]] = {}
         for i, obj in enumerate(objects):
             by_target.setdefault(obj.target, []).append(i)
@@ -135,6 +140,12 @@ class TrackManager:
                     j = cols[cj]
                     self._correct(tracks[ti], z[j], R[j], objs[j], time)
                     free[j] = False
+            # A missed track with an unmatched object of its colour nearby was lost by its motion model
+            # (an abrupt catch): its prediction is not worth reporting.
+            spare = z[free]
+            for t in self._tracks:
+                if t.target == target and not t.hit:
+                    t.contested = bool(len(spare)) and np.min(np.linalg.norm(spare - t.x[:3], axis=1)) < 0.2
             # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects).
             live = np.array([t.x[:3] for t in self._tracks if t.target == target]).reshape(-1, 3)
             for j in np.flatnonzero(free):
@@ -209,11 +220,22 @@ class TrackManager:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
         return time - tr.last_hit > limit + _EPS_TIME
 
+    def _in_view(self, position: np.ndarray) -> bool:
+        if self.rig is None:
+            return True
+        for cam in self.rig.cameras:
+            uv, ok = cam.project(position[None])
+            u, v = uv[0]
+            if not (ok[0] and 0 <= u < cam.width and 0 <= v < cam.height):
+                return False
+        return True
+
     def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
-        reported = tr.confirmed and (tr.hit or tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME)
+        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and self._in_view(x[:3])
+        reported = tr.confirmed and (tr.hit or coasting_ok)
         return TrackEstimate(
             track_id=tr.track_id,
             target=tr.target,
