@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
         from ..viz import make_viz_sink
     except ImportError:
         make_viz_sink = None
-    viz = make_viz_sink(args, rig, config, recording_name="live") if make_viz_sink is not None and hasattr(args, "rrd") else None
+    viz = make_viz_sink(args, rig, config, recording_name="live", live=True) if make_viz_sink is not None and hasattr(args, "rrd") else None
     if viz is not None:
         sinks.append(viz)
     recorder = None
