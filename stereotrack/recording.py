@@ -20,7 +20,9 @@ import yaml
 
 from .camera import Rig, load_rig, save_rig
 from .console import warn
+from .csvfile import read_columns
 from .errors import StereotrackError
+from .yamlfile import load_yaml
 
 CODECS = {"ffv1": ("FFV1", ".mkv"), "mjpg": ("MJPG", ".avi")}
 
@@ -157,15 +159,6 @@ class RecordingWriter:
 # --------------------------------------------------------------------------- reader
 
 
-def _read_yaml(path: Path, what: str) -> Any:
-    if not path.is_file():
-        raise StereotrackError(f"{path}: {what} is missing")
-    try:
-        return yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise StereotrackError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-
-
 def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
     if not path.is_file():
         raise StereotrackError(f"{path}: frames.csv is missing (is this a recording folder?)")
@@ -247,7 +240,7 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
     folder = Path(folder)
     if not folder.is_dir():
         raise StereotrackError(f"{folder}: recording folder not found")
-    meta = _read_yaml(folder / "meta.yaml", "meta.yaml")
+    meta = load_yaml(folder / "meta.yaml", "meta.yaml is missing")
     if not isinstance(meta, dict) or "cameras" not in meta or "videos" not in meta:
         raise StereotrackError(f"{folder / 'meta.yaml'}: expected 'cameras' and 'videos' fields")
     names = [str(n) for n in meta["cameras"]]
@@ -306,15 +299,7 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
 
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: ground-truth file not found")
-    with open(path) as f:
-        header = f.readline().strip().split(",")
-    if header[:5] != ["frame", "object_id", "x", "y", "z"]:
-        raise StereotrackError(f"{path}: header must start with frame,object_id,x,y,z")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=range(5))
-    return data.reshape(-1, 5)
+    return read_columns(path, ["frame", "object_id", "x", "y", "z"], "ground-truth file")
 
 
 # --------------------------------------------------------------------------- sink

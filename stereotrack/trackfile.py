@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import StereotrackError
+from .csvfile import read_columns
 from .results import FrameResult
 
 HEADER = ["frame", "time", "track_id", "x", "y", "z", "sx", "sy", "sz", "n_particles", "target"]
@@ -43,12 +43,4 @@ class TracksCsvSink:
 
 def read_tracks(path: str | Path) -> np.ndarray:
     """tracks.csv -> (M x 6) float array: frame, time, track_id, x, y, z (extra columns ignored)."""
-    path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: tracks file not found")
-    with open(path) as f:
-        header = f.readline().strip().split(",")
-    if header[:6] != HEADER[:6]:
-        raise StereotrackError(f"{path}: header must start with {','.join(HEADER[:6])}")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=range(6))
-    return data.reshape(-1, 6)
+    return read_columns(path, HEADER[:6], "tracks file")
