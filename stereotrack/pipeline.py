@@ -27,9 +27,6 @@ from .results import FrameResult, Object3D, ParticleSet, Rays, Sink
 from .tracks import TrackManager
 
 
-EM_METHOD = "numpy"  # "sklearn" swaps in scikit-learn's GaussianMixture (benchmark comparison only)
-
-
 class Tracker:
     """The particle tracker of the paper plus persistent identities.
 
@@ -54,7 +51,7 @@ class Tracker:
                 min_mass=s.cluster_min_mass,
                 min_particles=s.cluster_min_particles,
                 max_objects=s.max_objects,
-                method=EM_METHOD,
+                method=s.em,
             )
             for t in config.targets
         }

@@ -87,11 +87,7 @@ def run(args) -> int:
         bar.close()
         base = spec.config()
         for n, alpha in cases:
-            config = replace(base, tracker=replace(base.tracker, particles=n, alpha=alpha))
-            if args.em != "numpy":
-                from .. import pipeline
-
-                pipeline.EM_METHOD = args.em
+            config = replace(base, tracker=replace(base.tracker, particles=n, alpha=alpha, em=args.em))
             r = bench_case(frames, renderer.rig, config)
             print(
                 f"| {w}x{h} | {n} | {alpha:g} | {r['step']:.2f} | {r['floor']:.2f} | {r['ratio']:.1f} | "
