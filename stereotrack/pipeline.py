@@ -149,7 +149,7 @@ class Tracker:
 class RunSummary:
     frames: int
     seconds: float
-    mean_step_ms: float
+    median_step_ms: float
     tracks_seen: int
     max_objects: int
 

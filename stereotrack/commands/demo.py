@@ -18,10 +18,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/demo/tracks.csv", help="tracks CSV (default out/demo/tracks.csv)")
     p.add_argument("--method", choices=["particles", "baseline"], default="particles", help=argparse.SUPPRESS)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    try:
-        from ..viz import add_viz_arguments
-    except ImportError:
-        return
+    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
+
     add_viz_arguments(p)
 
 
@@ -38,6 +36,6 @@ def run(args) -> int:
     args.start = 0
     args.frames = None
     args.realtime = False
-    if hasattr(args, "rrd") and not any(getattr(args, k, None) for k in ("rrd", "spawn", "connect", "serve")):
+    if not any(getattr(args, k, None) for k in ("rrd", "spawn", "connect", "serve")):
         args.rrd = str(Path(args.out).with_name("demo.rrd"))  # the demo always leaves a viewer recording
     return track_recording(args)

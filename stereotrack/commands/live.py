@@ -37,10 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
-    try:
-        from ..viz import add_viz_arguments
-    except ImportError:
-        return
+    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
+
     add_viz_arguments(parser)
 
 
@@ -148,11 +146,9 @@ def run(args: argparse.Namespace) -> int:
     sinks = []
     if args.out:
         sinks.append(TracksCsvSink(args.out))
-    try:
-        from ..viz import make_viz_sink
-    except ImportError:
-        make_viz_sink = None
-    viz = make_viz_sink(args, rig, config, recording_name="live", live=True) if make_viz_sink is not None and hasattr(args, "rrd") else None
+    from ..viz import make_viz_sink
+
+    viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
     if viz is not None:
         sinks.append(viz)
     recorder = None
@@ -179,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     if len(lat):
         third = max(1, len(lat) // 3)
         info(
-            f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s; tracker step median {summary.mean_step_ms:.1f} ms); "
+            f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s; tracker step median {summary.median_step_ms:.1f} ms); "
             f"grab-to-estimate latency median {np.median(lat):.0f} ms, 95% {np.percentile(lat, 95):.0f} ms "
             f"(first third {np.median(lat[:third]):.0f} ms, last third {np.median(lat[-third:]):.0f} ms); "
             f"{stats.pairs_dropped} pairs dropped while the tracker was busy, unpaired frames {'/'.join(str(c.unpaired) for c in stats.cameras)}"

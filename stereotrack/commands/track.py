@@ -28,17 +28,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", type=int, help="track at most this many frames")
     p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    add_viz = _viz_arguments()
-    if add_viz:
-        add_viz(p)
+    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
-
-def _viz_arguments():
-    try:
-        from ..viz import add_viz_arguments
-    except ImportError:
-        return None
-    return add_viz_arguments
+    add_viz_arguments(p)
 
 
 def resolve_config(recording, config_path: str | None):
@@ -93,15 +85,11 @@ def track_recording(args, default_out: Path | None = None) -> int:
     truth = read_truth(rec.truth_path) if rec.truth_path else None
     tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
     sinks = [TracksCsvSink(out)]
-    viz_sink = None
-    try:
-        from ..viz import make_viz_sink
-    except ImportError:
-        make_viz_sink = None
-    if make_viz_sink is not None:
-        viz_sink = make_viz_sink(args, rig, config, truth=truth)
-        if viz_sink is not None:
-            sinks.append(viz_sink)
+    from ..viz import make_viz_sink
+
+    viz_sink = make_viz_sink(args, rig, config, truth=truth)  # None when no viewer flag is given
+    if viz_sink is not None:
+        sinks.append(viz_sink)
     frames = rec.frames(args.start, stop)
     if args.realtime:
         from ..sources import paced
@@ -123,7 +111,7 @@ def track_recording(args, default_out: Path | None = None) -> int:
             warn(f"target {name!r} matched nothing in the whole recording: check its HSV range ('stereotrack colour learn') and the lighting")
     info(
         f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
-        f"tracker step median {summary.mean_step_ms:.1f} ms): {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
+        f"tracker step median {summary.median_step_ms:.1f} ms): {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
     )
     info(f"tracks written to {out}")
     if truth is not None and summary.frames:
