@@ -73,6 +73,7 @@ class TrackSettings:
     min_separation: float = 0.05  # metres; an unmatched object this close to a live track is that ball seen twice, not a new one
     up: tuple[float, float, float] | None = None  # the world's up axis, e.g. [0, 0, 1], for gravity; none = no gravity (unknown rig)
     g: float = 9.81  # gravity, m/s^2, used only when 'up' is set
+    flight_window: float = 0.25  # seconds of recent positions that decide if a ball flies freely (gravity on) or is held, swung or rolled (off)
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,11 @@ is compared with a ball of the known radius at the object's depth:
 - a kept object that alone explains a blob of consistent size in every
   camera gets the triangulated blob centroids as its position (the particle
   mean is biased by the shape of the ball's likelihood plateau; centroids
-  are not). Otherwise (occlusion, merged blobs) it keeps the particle mean.
+  are not). With one such view, its ray fixes the direction; the depth comes
+  from the particles, or, when the other view's blob is shared with another
+  ball and the particles spread wide along the ray, from the ball's track
+  (the particles' mean is then biased towards the other ball). Otherwise
+  (occlusion in every view) it keeps the particle mean.
 """
 
 from __future__ import annotations
@@ -148,25 +152,46 @@ def explain(
         kept.append(int(i))
     kept.sort()
     out = []
-    for n_out, i in enumerate(kept):
+    for i in kept:
+        into[members[i]] = len(out)
         obj = merged[i]
         if settings.refine:
-            obj = _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings)
+            obj = _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted)
         out.append(obj)
-        into[members[i]] = n_out
     return out, into
 
 
-def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings) -> Object3D:
+def _depth_along_ray(o, d, particle_depth: float, along_var: float, predicted, radius: float) -> float:
+    """Where along a clean view's ray a ball sits whose other views are shared or hidden.
+
+    The particles spread along the stretch of the ray that the shared blob
+    allows, and their mean is biased wherever the other ball covers more of it
+    (when the ball is hidden behind a nearer one, any point of the stretch
+    fits the masks). A track predicted next to the ray knows better: its
+    depth is used when it lies inside the particles' stretch.
+    """
+    if predicted is None or len(predicted) == 0:
+        return particle_depth
+    t = (predicted - o) @ d
+    lateral = np.linalg.norm(predicted - (o + np.outer(t, d)), axis=1)
+    k = int(np.argmin(lateral))
+    if lateral[k] < 2 * radius and abs(t[k] - particle_depth) < 2.5 * np.sqrt(along_var):
+        return float(t[k])
+    return particle_depth
+
+
+def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted=None) -> Object3D:
     """Blob centroids where they belong to this ball alone and have its size; else the particles' word."""
     others = [k for k in kept if k != i]
     good = []
+    shared = False
     for j in range(len(cameras)):
         b = blob_ids[i, j]
-        if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
-            continue  # unseen, clipped, occluded or merged with another ball in this camera
-        if any(blob_ids[k, j] == b for k in others):
+        if b >= 0 and any(blob_ids[k, j] == b for k in others):
+            shared = True
             continue  # a blob shared with another ball: its centroid is of neither
+        if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
+            continue  # unseen, clipped or occluded in this camera
         good.append(j)
     if len(good) >= 2:
         px = [blobs[j].centres[blob_ids[i, j]][None] for j in good]
@@ -180,11 +205,19 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings) -> Obj
         j = good[0]
         o, d = cameras[j].rays(blobs[j].centres[blob_ids[i, j]][None])
         o, d = o[0], d[0]
-        point = o + d * float((obj.position - o) @ d)
-        along = max(float(d @ obj.covariance @ d), settings.one_view_depth_sigma**2)
+        spread = float(d @ obj.covariance @ d)
+        along = max(spread, settings.one_view_depth_sigma**2)
+        own = float((obj.position - o) @ d)
+        if np.linalg.norm(obj.position - (o + d * own)) > 3 * settings.radius:
+            return obj  # the blob and the particles disagree: trust the particles
+        # Only a blob shared with another ball, with the particles spread wide along the ray, makes
+        # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
+        ambiguous = shared and spread > settings.one_view_depth_sigma**2
+        point = o + d * (_depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own)
         z = float(cameras[j].depth(point[None])[0])
         across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
         cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
+        return replace(obj, position=point, covariance=cov)
     else:
         return obj
     if np.linalg.norm(point - obj.position) > 3 * settings.radius:

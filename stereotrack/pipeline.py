@@ -80,7 +80,8 @@ class Tracker:
         }
         t2 = time.perf_counter()
         timings["blobs"] = 1e3 * (t2 - t1)
-        predicted = [tr for tr in self.identities.predicted(now) if tr.state == "confirmed"]
+        live = [tr for tr in self.identities.predicted(now) if tr.state != "tentative"]
+        predicted = [tr for tr in live if tr.state == "confirmed"]
         radius = {t.name: t.radius for t in self.config.targets}
         centres = np.array([tr.position for tr in predicted]).reshape(-1, 3)
         radii = np.array([radius[tr.target] for tr in predicted])
@@ -98,7 +99,7 @@ class Tracker:
             cl = cluster_particles(st.positions, st.weights, st.likelihoods, cams, self.cluster_settings[t.name], self.prev_means[t.name], self.cluster_rng)
             self.prev_means[t.name] = cl.means
             candidates = [Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))]
-            pred = np.array([tr.position for tr in predicted if tr.target == t.name]).reshape(-1, 3)
+            pred = np.array([tr.position for tr in live if tr.target == t.name]).reshape(-1, 3)
             kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred)
             remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
             objects.extend(kept_objects)

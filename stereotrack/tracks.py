@@ -1,7 +1,8 @@
 """Persistent identities: objects found each frame -> tracks with the same id over time.
 
 Each track is a constant-velocity Kalman filter on (position, velocity), with
-gravity as a known acceleration when the world's up axis is set. Every frame
+gravity as a known acceleration when the world's up axis is set and the
+ball flies freely (see ``in_free_flight``). Every frame
 the tracks are predicted to the frame's time (dt from timestamps, not frame
 counts), this frame's objects are assigned to them globally (Hungarian,
 ``scipy.optimize.linear_sum_assignment``) inside a Mahalanobis gate, and the
@@ -24,7 +25,7 @@ shrink it).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -55,6 +56,8 @@ class _Track:
     hit: bool = True  # matched in the latest update
     contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
     n_particles: int = 0
+    history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
+    in_flight: bool = False  # gravity applies to its prediction
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -73,6 +76,15 @@ def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> t
         b[:3] = 0.5 * gravity * dt * dt
         b[3:] = gravity * dt
     return F, Q, b
+
+
+def in_free_flight(times: np.ndarray, positions: np.ndarray, gravity: np.ndarray) -> bool:
+    """Does a parabola fitted to these positions accelerate like gravity (within half of g) rather than not at all?"""
+    t = times - times.mean()
+    A = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
+    coef, *_ = np.linalg.lstsq(A, positions, rcond=None)
+    accel = coef[2]
+    return bool(np.linalg.norm(accel - gravity) < 0.5 * np.linalg.norm(gravity))
 
 
 class TrackManager:
@@ -169,7 +181,7 @@ class TrackManager:
         dt = max(0.0, time - tr.time)
         if dt == 0.0:
             return tr.x.copy(), tr.P.copy()
-        F, Q, b = motion_model(dt, self.settings.accel_noise, self.gravity)
+        F, Q, b = motion_model(dt, self.settings.accel_noise, self.gravity if tr.in_flight else None)
         return F @ tr.x + b, F @ tr.P @ F.T + Q
 
     def _measurement_cov(self, obj: Object3D) -> np.ndarray:
@@ -203,9 +215,21 @@ class TrackManager:
         tr.P = IKH @ tr.P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive definite
         tr.hit = True
         tr.last_hit = time
+        self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
             tr.confirmed = True
+
+    def _follow_flight(self, tr: _Track, z: np.ndarray, R: np.ndarray, time: float) -> None:
+        """Gravity only for a ball in free flight: a pendulum, a held or a rolling ball is not falling."""
+        if self.gravity is None:
+            return
+        if np.trace(R) < 3 * 0.02**2:  # depth-ambiguous objects (merged or hidden views) would blur the fit
+            tr.history.append((time, np.array(z, float)))
+        tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + _EPS_TIME]
+        times = np.array([t for t, _ in tr.history])
+        if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
+            tr.in_flight = in_free_flight(times, np.array([p for _, p in tr.history]), self.gravity)
 
     def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> _Track:
         P = np.zeros((6, 6))

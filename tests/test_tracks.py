@@ -126,6 +126,20 @@ def test_gravity_keeps_the_prediction_on_the_arc():
     assert errors[None] > 0.2
 
 
+def test_gravity_only_while_the_ball_flies_freely():
+    """A carried (or swung, or rolled) ball does not fall: with 'up' set, a ball moving at constant
+    velocity and then hidden for 0.25 s is predicted on its line (velocity noise aside), not 30 cm lower."""
+    rng = np.random.default_rng(5)
+    m = TrackManager(TrackSettings(up=(0.0, 0.0, 1.0)))
+    start, velocity = np.array([-0.3, 1.5, 0.2]), np.array([0.8, 0.1, 0.0])
+    for i in range(15):
+        t = i / 30
+        m.update([obj(start + velocity * t + rng.normal(0, 0.002, 3), sigma=0.002)], t)
+    t_hidden = 14 / 30 + 0.25
+    (pred,) = m.predicted(t_hidden)
+    assert np.linalg.norm(pred.position - (start + velocity * t_hidden)) < 0.05
+
+
 def test_new_id_after_a_long_absence():
     m = TrackManager(TrackSettings())
     p = np.array([0.2, 0.1, 1.5])
