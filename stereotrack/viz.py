@@ -22,6 +22,12 @@ Entity layout (what the README's viewer section explains)::
 
 Two timelines: ``frame`` (the frame pair's index) and ``capture_time`` (seconds
 since the first logged frame, from the pair's capture timestamps).
+
+Cost: the tracker's thread only queues each FrameResult; a logging thread
+encodes the JPEGs and gathers logged frames, then sends them as columns, one
+``send_columns`` per entity for a batch of frames (BATCH, or what a slow
+camera delivered within BATCH_SECONDS). What never changes (radii, fill modes,
+media type) is logged once, static. BENCHMARKS.md, ``viewer``, has the figures.
 """
 
 from __future__ import annotations
@@ -58,8 +64,23 @@ PALETTE = np.array(
     dtype=np.uint8,
 )
 UNCLUSTERED = np.array([150, 150, 150], dtype=np.uint8)
+
+
+def packed_rgba(rgb: np.ndarray) -> np.ndarray:
+    """RGB colours (N x 3 or 3, uint8) -> rerun's packed 0xRRGGBBAA (N, uint32), opaque."""
+    rgb = np.asarray(rgb, dtype=np.uint32).reshape(-1, 3)
+    return (rgb[:, 0] << 24) | (rgb[:, 1] << 16) | (rgb[:, 2] << 8) | np.uint32(0xFF)
+
+
+PALETTE_RGBA = packed_rgba(PALETTE)
+# Particles by shade: the palette, then unclustered; then the same lighter for abductive particles.
+PARTICLE_RGBA = packed_rgba(np.vstack([PALETTE, UNCLUSTERED, (np.vstack([PALETTE, UNCLUSTERED]).astype(np.uint16) + 255) // 2]))
 SEQUENTIAL, ABDUCTIVE = 0, 1  # particle class ids
-SERIES_BATCH = 10  # logged frames per batch of time-series values (a third of a second at 30 frames/s)
+# Logged frames are sent to rerun as columns: one send_columns per entity for BATCH frames, or for what is
+# pending once the first frame has waited BATCH_SECONDS (the live view's extra latency). A call costs about
+# the same for 1 frame as for 15, so this is ~15x fewer calls than one log call per entity and frame.
+BATCH = 15
+BATCH_SECONDS = 0.25
 QUEUE = 8  # frames the logging thread may lag behind the tracker before write() waits
 
 
@@ -265,17 +286,16 @@ class Trail:
 
 
 class SeriesBuffer:
-    """Time-series values gathered per entity and sent as columns every few frames.
+    """Time-series values gathered per entity and sent as columns with the sink's batches.
 
     One ``send_columns`` per series per batch instead of one ``log`` call per
     value and frame: the time series are most of the log calls, and each call
     costs more than the numbers it carries.
     """
 
-    def __init__(self, rr: Any, rec: Any, frames_per_batch: int):
-        self.rr, self.rec, self.frames_per_batch = rr, rec, frames_per_batch
+    def __init__(self, rr: Any, send_rows: Any):
+        self.rr, self.send_rows = rr, send_rows  # send_rows: RerunSink._rows
         self.series: dict[str, tuple[list[int], list[float], list[float]]] = {}
-        self.frames_pending = 0
 
     def add(self, path: str, frame: int, t: float, value: float) -> None:
         frames, times, values = self.series.setdefault(path, ([], [], []))
@@ -283,23 +303,29 @@ class SeriesBuffer:
         times.append(t)
         values.append(float(value))
 
-    def end_frame(self) -> None:
-        self.frames_pending += 1
-        if self.frames_pending >= self.frames_per_batch:
-            self.flush()
-
     def flush(self) -> None:
         rr = self.rr
+        index: dict[tuple[int, ...], list[Any]] = {}  # most series share the batch's frames: build their time columns once
         for path, (frames, times, values) in self.series.items():
             if frames:
-                self.rec.send_columns(
-                    path,
-                    indexes=[rr.TimeColumn("frame", sequence=frames), rr.TimeColumn("capture_time", duration=times)],
-                    columns=rr.Scalars.columns(scalars=values),
-                )
+                key = tuple(frames)
+                if key not in index:
+                    index[key] = [rr.TimeColumn("frame", sequence=np.array(frames, dtype=np.int64)), rr.TimeColumn("capture_time", duration=np.array(times))]
+                self.send_rows(path, index[key], np.ones(len(values), dtype=np.int64), rr.Scalars, scalars=np.array(values))
         self.series.clear()
-        self.frames_pending = 0
 
+
+@dataclass
+class Pending:
+    """One logged frame waiting for its batch: references and the few things that cannot wait (JPEGs, trails)."""
+
+    index: int  # frame number
+    time: float  # capture_time, s
+    objects: tuple  # Object3D
+    tracks: tuple  # the confirmed TrackEstimates
+    jpegs: list  # per camera, the encoded image (uint8 array)
+    particles: list  # per target: (target, positions, labels, abductive, index of its first object)
+    trails: list  # per confirmed track with a trail: (its index in tracks, times, points)
 
 
 class RerunSink:
@@ -329,6 +355,10 @@ class RerunSink:
         self._targets = {t.name: t for t in config.targets}
         self._colours = {t.name: target_colour(t) for t in config.targets}
         self._truth = self._index_truth(truth)
+        self._truth_labels = [f"truth {int(o)}" for o in self._truth[0][:, 1]] if self._truth is not None else []
+        import cv2
+
+        self._jpeg_params = [cv2.IMWRITE_JPEG_QUALITY, int(settings.jpeg_quality)]
         self._children: list[subprocess.Popen] = []
         self._n_written = 0
         self.skipped = 0  # frames not logged because logging lagged (skip_when_behind)
@@ -351,7 +381,11 @@ class RerunSink:
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
         self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
         self._log_static()
-        self._series = SeriesBuffer(rr, self.rec, SERIES_BATCH)
+        self._components: dict[tuple[type, str], tuple[Any, Any]] = {}  # (archetype, field) -> descriptor, batch class
+        self._packed_colours: dict[str, int] = {}
+        self._series = SeriesBuffer(rr, self._rows)
+        self._batch: list[Pending] = []  # logged frames not sent yet (the logging thread's own)
+        self._batch_started = 0.0  # time.monotonic() when the first of them arrived
         self._worker.start()
 
     # ----------------------------------------------------------------- setup
@@ -414,6 +448,18 @@ class RerunSink:
             rr.AnnotationContext([rr.AnnotationInfo(id=SEQUENTIAL, label="sequential"), rr.AnnotationInfo(id=ABDUCTIVE, label="abductive")]),
             static=True,
         )
+        # What never changes is logged once, static; the batches carry only what changes from frame to frame.
+        for cam in self.rig.cameras:
+            path = f"world/cameras/{cam.name}"
+            if self.settings.images and self.settings.jpeg_quality > 0:
+                rec.log(f"{path}/image", rr.EncodedImage.from_fields(media_type="image/jpeg"), static=True)
+            rec.log(f"{path}/tracks", rr.Points2D.from_fields(radii=4.0), static=True)
+        rec.log("world/objects", rr.Points3D.from_fields(radii=0.01, show_labels=False), static=True)
+        rec.log("world/tracks", rr.Ellipsoids3D.from_fields(fill_mode=rr.components.FillMode.Solid), static=True)
+        rec.log("world/tracks/covariance", rr.Ellipsoids3D.from_fields(fill_mode=rr.components.FillMode.MajorWireframe), static=True)
+        rec.log("world/tracks/trails", rr.LineStrips3D.from_fields(radii=0.004), static=True)
+        if self._truth is not None:
+            rec.log("world/truth", rr.Points3D.from_fields(colors=[255, 255, 255], radii=0.008, show_labels=False), static=True)
 
     @staticmethod
     def _index_truth(truth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
@@ -467,85 +513,232 @@ class RerunSink:
             raise RuntimeError("RerunSink.write after close")
 
     def _work(self) -> None:
-        """The logging thread: rerun's time is per thread, so every timed log call happens here."""
+        """The logging thread: rerun's time is per thread, so every timed log call happens here.
+
+        Logged frames are gathered and sent as columns once BATCH of them are
+        pending, or once the first has waited BATCH_SECONDS (a slow live camera).
+        """
         while True:
-            item = self._queue.get()
-            if item is None:
-                if self._worker_error is None:
-                    self._series.flush()
-                return
-            if self._worker_error is not None:
-                continue  # keep draining so the tracker never blocks on a dead logger
+            timeout = None if not self._batch else max(0.0, self._batch_started + BATCH_SECONDS - time.monotonic())
             try:
-                self._log_frame(*item)
-            except Exception as exc:  # reported to the tracker's thread on its next write or close
-                self._worker_error = exc
+                item = self._queue.get(timeout=timeout)
+            except queue.Empty:  # nothing new for a while: send what is pending
+                self._guarded(self._flush)
+                continue
+            if item is None:
+                self._guarded(self._flush)
+                return
+            self._guarded(self._log_frame, *item)
+
+    def _guarded(self, fn, *args) -> None:
+        if self._worker_error is not None:
+            return  # keep draining so the tracker never blocks on a dead logger
+        try:
+            fn(*args)
+        except Exception as exc:  # reported to the tracker's thread on its next write or close
+            self._worker_error = exc
 
     def _log_frame(self, result: FrameResult, now: float, log: bool, fps: float | None) -> None:
+        """One frame in the logging thread: the trails follow it; a logged frame joins the batch."""
         self._follow_trails(result, now)
         if not log:
             return
-        rec = self.rec
-        rec.set_time("frame", sequence=result.frame.index)
-        rec.set_time("capture_time", duration=now)
-        offsets = self._object_offsets(result)
-        self._log_cameras(result, offsets)
-        self._log_particles(result, offsets)
-        self._log_objects(result, offsets)
-        self._log_tracks(result, now)
-        if self.settings.rays:
-            self._log_rays(result)
+        s = self.settings
+        if (s.images and s.jpeg_quality == 0) or s.masks or s.rays:  # the optional heavy layers: logged at once, row by row
+            self.rec.set_time("frame", sequence=result.frame.index)
+            self.rec.set_time("capture_time", duration=now)
+            self._log_extras(result)
+        if not self._batch:
+            self._batch_started = time.monotonic()
+        self._batch.append(self._gather(result, now))
         self._log_stats(result, now, fps)
-        if self._truth is not None:
-            self._log_truth(result, now)
-        self._series.end_frame()
+        if len(self._batch) >= BATCH or time.monotonic() - self._batch_started >= BATCH_SECONDS:
+            self._flush()
 
-    def _object_offsets(self, result: FrameResult) -> dict[str, int]:
-        """Index of each target's first object in result.objects: particle labels are per target."""
-        offsets: dict[str, int] = {}
+    def _gather(self, result: FrameResult, now: float) -> Pending:
+        """What a logged frame contributes to its batch; the arrays are built once per batch in _send."""
+        s = self.settings
+        confirmed = result.confirmed
+        jpegs = self._encode_images(result) if s.images and s.jpeg_quality > 0 else []
+        offsets: dict[str, int] = {}  # index of each target's first object: particle labels count per target
         for i, obj in enumerate(result.objects):
             offsets.setdefault(obj.target, i)
-        return offsets
+        limit = s.max_particles
+        particles = []
+        for ps in result.particles:
+            n = len(ps.positions)
+            keep = np.sort(self._rng.choice(n, size=limit, replace=False)) if n > limit else slice(None)
+            particles.append((ps.target, ps.positions[keep], ps.labels[keep], ps.abductive[keep], offsets.get(ps.target, 0)))
+        trails = []
+        for k, t in enumerate(confirmed):
+            trail = self._trails.get(t.track_id)
+            if trail is not None and len(trail) >= 2:
+                trails.append((k, *trail.arrays()))  # views: a Trail never rewrites points it has handed out
+        return Pending(result.frame.index, now, result.objects, confirmed, jpegs, particles, trails)
+
+    def _encode_images(self, result: FrameResult) -> list[np.ndarray]:
+        """Each camera's image as JPEG bytes (OpenCV's libjpeg-turbo; it releases the GIL while it encodes)."""
+        import cv2
+
+        return [cv2.imencode(".jpg", img, self._jpeg_params)[1] for img in result.frame.images[: len(self.rig.cameras)]]
+
+    def _flush(self) -> None:
+        batch, self._batch = self._batch, []
+        if batch:
+            self._send(batch)
+        self._series.flush()
+
+    def _send(self, batch: list[Pending]) -> None:
+        """Send a batch of logged frames: one send_columns per entity, every array built once for the batch."""
+        rr = self.rr
+        n = len(batch)
+        frames = np.array([b.index for b in batch], dtype=np.int64)
+        times = np.array([b.time for b in batch], dtype=float)
+        index = [rr.TimeColumn("frame", sequence=frames), rr.TimeColumn("capture_time", duration=times)]
+
+        # Objects: cluster means, coloured by their index in their frame (as their particles).
+        objects = [o for b in batch for o in b.objects]
+        n_obj = np.array([len(b.objects) for b in batch], dtype=np.int64)
+        obj_pos = np.array([o.position for o in objects], dtype=float).reshape(-1, 3)
+        obj_rank = np.arange(len(objects)) - np.repeat(np.cumsum(n_obj) - n_obj, n_obj)
+        obj_colours = PALETTE_RGBA[obj_rank % len(PALETTE)]
+        obj_radii = np.array([self._radius(o.target) for o in objects], dtype=float)
+        labels = [f"{o.target} {o.n_particles}p" for o in objects]
+        self._rows("world/objects", index, n_obj, rr.Points3D, positions=obj_pos, colors=obj_colours, labels=labels)
+
+        # Tracks: spheres of the ball's radius, 2-sigma covariance ellipsoids (one batched eigen-decomposition).
+        tracks = [t for b in batch for t in b.tracks]
+        n_trk = np.array([len(b.tracks) for b in batch], dtype=np.int64)
+        centres = np.array([t.position for t in tracks], dtype=float).reshape(-1, 3)
+        radii = np.array([self._radius(t.target) for t in tracks], dtype=float)
+        colours = np.array([self._packed(t.target) for t in tracks], dtype=np.uint32)
+        labels = [f"#{t.track_id} {t.target}" for t in tracks]
+        self._rows("world/tracks", index, n_trk, rr.Ellipsoids3D, centers=centres, half_sizes=np.repeat(radii[:, None], 3, axis=1), colors=colours, labels=labels)
+        cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
+        evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
+        evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
+        halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
+        self._rows("world/tracks/covariance", index, n_trk, rr.Ellipsoids3D, centers=centres, half_sizes=halves, quaternions=quaternions_xyzw(evecs), colors=colours)
+
+        # Fading trails: one two-point strip per step, alpha falling with age.
+        first_trk = np.cumsum(n_trk) - n_trk
+        pieces = [(b.time, first_trk[i] + k, ts, pts) for i, b in enumerate(batch) for k, ts, pts in b.trails]
+        if pieces:
+            steps = np.array([len(p[2]) - 1 for p in pieces])
+            ts = np.concatenate([p[2] for p in pieces])
+            pts = np.concatenate([p[3] for p in pieces])
+            within = np.ones(len(ts) - 1, dtype=bool)
+            within[np.cumsum(steps + 1)[:-1] - 1] = False  # no step from one trail's end to the next one's start
+            ends = np.stack([pts[:-1][within], pts[1:][within]], axis=1)
+            age = np.repeat([p[0] for p in pieces], steps) - ts[1:][within]
+            alpha = np.clip(255.0 * (1.0 - age / max(self.settings.trail_seconds, 1e-9)), 0, 255).astype(np.uint32)
+            seg_colours = (np.repeat(colours[[p[1] for p in pieces]], steps) & np.uint32(0xFFFFFF00)) | alpha
+            n_seg = np.bincount([i for i, b in enumerate(batch) for _ in b.trails], weights=steps, minlength=n).astype(np.int64)
+        else:
+            ends, seg_colours, n_seg = np.zeros((0, 2, 3)), np.zeros(0, np.uint32), np.zeros(n, dtype=np.int64)
+        self._rows("world/tracks/trails", index, n_seg, rr.LineStrips3D, strips=self._segments(ends), colors=seg_colours)
+
+        # Particles, per target: coloured by cluster; abductive ones lighter and smaller, class 1.
+        for target in dict.fromkeys(p[0] for b in batch for p in b.particles):
+            mine = [next((p for p in b.particles if p[0] == target), None) for b in batch]
+            lengths = np.array([0 if p is None else len(p[1]) for p in mine], dtype=np.int64)
+            mine = [p for p in mine if p is not None]
+            pos = np.concatenate([p[1] for p in mine])
+            labels = np.concatenate([p[2] for p in mine])
+            abductive = np.concatenate([p[3] for p in mine]).astype(bool)
+            glob = labels + np.repeat([p[4] for p in mine], [len(p[1]) for p in mine])
+            shade = np.where(labels >= 0, glob % len(PALETTE), len(PALETTE)) + abductive * (len(PALETTE) + 1)
+            self._rows(
+                f"world/particles/{target}",
+                index,
+                lengths,
+                rr.Points3D,
+                positions=pos,
+                colors=PARTICLE_RGBA[shade],
+                radii=np.where(abductive, 0.003, 0.005),
+                class_ids=np.where(abductive, ABDUCTIVE, SEQUENTIAL).astype(np.uint16),
+            )
+
+        if self._truth is not None:
+            truth, truth_frames = self._truth
+            lo, hi = np.searchsorted(truth_frames, frames), np.searchsorted(truth_frames, frames + 1)
+            rows = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]).astype(np.int64)
+            self._rows("world/truth", index, hi - lo, rr.Points3D, positions=truth[rows, 2:5], labels=[self._truth_labels[i] for i in rows])
+
+        # Each camera: its image, the objects' windows and the tracks' marks, projected for the whole batch at once.
+        both, n_objs = np.vstack([obj_pos, centres]), len(objects)
+        obj_frame, trk_frame = np.repeat(np.arange(n), n_obj), np.repeat(np.arange(n), n_trk)
+        trk_labels = [f"#{t.track_id}" for t in tracks]
+        half_window = self.config.tracker.window / 2
+        for ci, cam in enumerate(self.rig.cameras):
+            path = f"world/cameras/{cam.name}"
+            have = [i for i, b in enumerate(batch) if ci < len(b.jpegs)]
+            if have:
+                idx = index if len(have) == n else [rr.TimeColumn("frame", sequence=frames[have]), rr.TimeColumn("capture_time", duration=times[have])]
+                self._rows(f"{path}/image", idx, np.ones(len(have), dtype=np.int64), rr.EncodedImage, blob=[batch[i].jpegs[ci] for i in have])
+            uv, depth, vis = self._visible(cam, both)
+            o_vis = vis[:n_objs]
+            half = np.maximum(cam.K[0, 0] * obj_radii[o_vis] / depth[:n_objs][o_vis], half_window)
+            self._rows(
+                f"{path}/objects",
+                index,
+                np.bincount(obj_frame[o_vis], minlength=n),
+                rr.Boxes2D,
+                centers=uv[:n_objs][o_vis],
+                half_sizes=np.repeat(half[:, None], 2, axis=1),
+                colors=obj_colours[o_vis],
+            )
+            t_vis = vis[n_objs:]
+            self._rows(
+                f"{path}/tracks",
+                index,
+                np.bincount(trk_frame[t_vis], minlength=n),
+                rr.Points2D,
+                positions=uv[n_objs:][t_vis],
+                colors=colours[t_vis],
+                labels=[lb for lb, v in zip(trk_labels, t_vis) if v],
+            )
+
+    def _rows(self, path: str, index: list[Any], lengths: np.ndarray, archetype: type, **fields: Any) -> None:
+        """One send_columns: each field's instances (all frames of the batch, concatenated) split into rows of these lengths.
+
+        The component batches are built straight from the arrays (rerun's
+        ``Archetype.columns`` would convert and partition each twice).
+        """
+        offsets = np.zeros(len(lengths) + 1, dtype=np.int32)
+        np.cumsum(lengths, out=offsets[1:])
+        columns = []
+        for name, data in fields.items():
+            key = (archetype, name)
+            if key not in self._components:
+                descriptor = getattr(archetype, f"descriptor_{name}")()
+                self._components[key] = (descriptor, getattr(self.rr.components, descriptor.component_type.rsplit(".", 1)[-1] + "Batch"))
+            descriptor, batch = self._components[key]
+            columns.append(self.rr.ComponentColumn(descriptor, batch(data), offsets=offsets))
+        self.rec.send_columns(path, index, columns)
+
+    def _segments(self, ends: np.ndarray) -> Any:
+        """S x 2 x 3 segment end points -> rerun's LineStrip3D arrow array in one go (its converter loops per strip)."""
+        import pyarrow as pa
+
+        strip_type = self.rr.components.LineStrip3DBatch._ARROW_DATATYPE
+        points = pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(ends, dtype=np.float32).reshape(-1)), type=strip_type.value_type)
+        return pa.ListArray.from_arrays(pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)), points, type=strip_type)
+
+    def _packed(self, name: str) -> int:
+        """A target's display colour as rerun's packed 0xRRGGBBAA."""
+        if name not in self._packed_colours:
+            self._packed_colours[name] = int(packed_rgba(self._colour(name))[0])
+        return self._packed_colours[name]
 
     def _target(self, name: str) -> Target:
         return self._targets.get(name) or Target(name, (0, 0, 0), (179, 255, 255))
 
+    def _radius(self, name: str) -> float:
+        return self._target(name).radius
+
     def _colour(self, name: str) -> np.ndarray:
         return self._colours.get(name, UNCLUSTERED)
-
-    def _log_cameras(self, result: FrameResult, offsets: dict[str, int]) -> None:
-        import cv2
-
-        rr, rec, s = self.rr, self.rec, self.settings
-        positions = np.array([o.position for o in result.objects]).reshape(-1, 3)
-        radii = np.array([self._target(o.target).radius for o in result.objects])
-        obj_colours = PALETTE[np.arange(len(positions)) % len(PALETTE)]
-        tracks = result.confirmed
-        track_pos = np.array([t.position for t in tracks]).reshape(-1, 3)
-        track_colours = np.array([self._colour(t.target) for t in tracks], dtype=np.uint8).reshape(-1, 3)
-        track_labels = [f"#{t.track_id}" for t in tracks]
-        both, n_obj = np.vstack([positions, track_pos]), len(positions)
-        half_window = self.config.tracker.window / 2
-        for ci, cam in enumerate(self.rig.cameras):
-            path = f"world/cameras/{cam.name}"
-            if s.images and ci < len(result.frame.images):
-                img = result.frame.images[ci]
-                if s.jpeg_quality > 0:
-                    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, int(s.jpeg_quality)])
-                    rec.log(f"{path}/image", rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg"))
-                else:
-                    rec.log(f"{path}/image", rr.Image(img, color_model="BGR"))
-            if s.masks:
-                self._log_mask(result, cam.name, path)
-            # One projection per camera for objects and tracks together.
-            uv, depth, vis = self._visible(cam, both)
-            # Objects: a box of the ball's expected image size (at least the colour window W) around its projection.
-            o_vis = vis[:n_obj]
-            half = np.maximum(cam.K[0, 0] * radii[o_vis] / depth[:n_obj][o_vis], half_window)
-            rec.log(f"{path}/objects", rr.Boxes2D(centers=uv[:n_obj][o_vis], half_sizes=np.repeat(half[:, None], 2, axis=1), colors=obj_colours[o_vis]))
-            t_vis = vis[n_obj:]
-            labels = [label for label, v in zip(track_labels, t_vis) if v]
-            rec.log(f"{path}/tracks", rr.Points2D(uv[n_obj:][t_vis], colors=track_colours[t_vis], radii=4.0, labels=labels))
 
     @staticmethod
     def _visible(cam, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -556,6 +749,18 @@ class RerunSink:
         uv = cam.distort_normalised(pc[:, :2] / np.where(front, depth, 1.0)[:, None])
         inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
         return uv, depth, inside
+
+    def _log_extras(self, result: FrameResult) -> None:
+        """Raw images, colour masks and viewing rays: off by default, logged per frame."""
+        rr, rec, s = self.rr, self.rec, self.settings
+        for ci, cam in enumerate(self.rig.cameras):
+            path = f"world/cameras/{cam.name}"
+            if s.images and s.jpeg_quality == 0 and ci < len(result.frame.images):
+                rec.log(f"{path}/image", rr.Image(result.frame.images[ci], color_model="BGR"))
+            if s.masks:
+                self._log_mask(result, cam.name, path)
+        if s.rays:
+            self._log_rays(result)
 
     def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
         label = None
@@ -569,86 +774,12 @@ class RerunSink:
         if label is not None:
             self.rec.log(f"{path}/mask", self.rr.SegmentationImage(label, opacity=0.5))
 
-    def _log_particles(self, result: FrameResult, offsets: dict[str, int]) -> None:
-        rr, rec = self.rr, self.rec
-        limit = self.settings.max_particles
-        for ps in result.particles:
-            n = len(ps.positions)
-            keep = np.sort(self._rng.choice(n, size=limit, replace=False)) if n > limit else slice(None)
-            pos = ps.positions[keep]
-            labels = ps.labels[keep]
-            abductive = ps.abductive[keep]
-            glob = np.where(labels >= 0, labels + offsets.get(ps.target, 0), -1)
-            colours = np.where((glob >= 0)[:, None], PALETTE[glob % len(PALETTE)], UNCLUSTERED)
-            # Abductive particles: same cluster colour, lighter and smaller.
-            colours = np.where(abductive[:, None], (colours.astype(np.uint16) + 255) // 2, colours).astype(np.uint8)
-            rec.log(
-                f"world/particles/{ps.target}",
-                rr.Points3D(
-                    pos,
-                    colors=colours,
-                    radii=np.where(abductive, 0.003, 0.005),
-                    class_ids=np.where(abductive, ABDUCTIVE, SEQUENTIAL),
-                ),
-            )
-
-    def _log_objects(self, result: FrameResult, offsets: dict[str, int]) -> None:
-        positions = np.array([o.position for o in result.objects]).reshape(-1, 3)
-        labels = [f"{o.target} {o.n_particles}p" for o in result.objects]
-        self.rec.log(
-            "world/objects",
-            self.rr.Points3D(positions, colors=PALETTE[np.arange(len(positions)) % len(PALETTE)], radii=0.01, labels=labels, show_labels=False),
-        )
-
     def _follow_trails(self, result: FrameResult, now: float) -> None:
         live = {t.track_id for t in result.tracks}
         for tid in [tid for tid in self._trails if tid not in live]:
             del self._trails[tid]
         for t in result.tracks:
             self._trails.setdefault(t.track_id, Trail()).add(now, t.position, self.settings.trail_seconds)
-
-    def _log_tracks(self, result: FrameResult, now: float) -> None:
-        rr, rec = self.rr, self.rec
-        tracks = result.confirmed
-        centres = np.array([t.position for t in tracks]).reshape(-1, 3)
-        radii = np.array([self._target(t.target).radius for t in tracks])
-        colours = np.array([self._colour(t.target) for t in tracks], dtype=np.uint8).reshape(-1, 3)
-        rec.log(
-            "world/tracks",
-            rr.Ellipsoids3D(
-                centers=centres,
-                half_sizes=np.repeat(radii[:, None], 3, axis=1),
-                colors=colours,
-                labels=[f"#{t.track_id} {t.target}" for t in tracks],
-                fill_mode=rr.components.FillMode.Solid,
-            ),
-        )
-        # 2-sigma covariance ellipsoids: one batched eigen-decomposition of the 3x3 matrices.
-        if tracks:
-            cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
-            evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
-            evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
-            quats = quaternions_xyzw(evecs)
-            halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
-        else:
-            quats, halves = np.zeros((0, 4)), np.zeros((0, 3))
-        rec.log(
-            "world/tracks/covariance",
-            rr.Ellipsoids3D(centers=centres, half_sizes=halves, quaternions=quats, colors=colours, fill_mode=rr.components.FillMode.MajorWireframe),
-        )
-        # Fading trails: one two-point strip per step, alpha falling with age.
-        segments, seg_colours = [], []
-        fade = max(self.settings.trail_seconds, 1e-9)
-        for t, colour in zip(tracks, colours):
-            trail = self._trails.get(t.track_id)
-            if trail is None or len(trail) < 2:
-                continue
-            times, pts = trail.arrays()
-            segments.append(np.stack([pts[:-1], pts[1:]], axis=1))
-            seg_colours.append(with_alpha(colour, 1.0 - (now - times[1:]) / fade))
-        strips = np.concatenate(segments) if segments else np.zeros((0, 2, 3))
-        seg_c = np.concatenate(seg_colours) if seg_colours else np.zeros((0, 4), np.uint8)
-        rec.log("world/tracks/trails", rr.LineStrips3D(strips, colors=seg_c, radii=0.004))
 
     def _log_rays(self, result: FrameResult) -> None:
         d_min, d_max = self.config.tracker.d_min, self.config.tracker.d_max
@@ -660,14 +791,17 @@ class RerunSink:
             )
 
     def _log_stats(self, result: FrameResult, now: float, fps: float | None) -> None:
-        def add(path: str, value: float) -> None:
-            self._series.add(path, result.frame.index, now, value)
+        frame = result.frame.index
 
-        for t in result.confirmed:
+        def add(path: str, value: float) -> None:
+            self._series.add(path, frame, now, value)
+
+        confirmed = result.confirmed
+        for t in confirmed:
             add(f"stats/counts/particles/track_{t.track_id}", t.n_particles)
         for name in self._targets:
             add(f"stats/counts/objects/{name}", sum(o.target == name for o in result.objects))
-        add("stats/counts/confirmed_tracks", len(result.confirmed))
+        add("stats/counts/confirmed_tracks", len(confirmed))
         for stage, ms in result.timings_ms.items():
             add(f"stats/timing_ms/{stage}", ms)
         if fps is not None:  # the whole loop (decode, track, sinks), over the last logged frames
@@ -676,21 +810,14 @@ class RerunSink:
             add("stats/rate/tracker_frames_per_s", 1000.0 / result.timings_ms["step"])
         if result.latency_s is not None:
             add("stats/rate/latency_ms", 1000.0 * result.latency_s)
-
-    def _log_truth(self, result: FrameResult, now: float) -> None:
-        truth, frames = self._truth
-        lo, hi = np.searchsorted(frames, [result.frame.index, result.frame.index + 1])
-        rows = truth[lo:hi]
-        self.rec.log(
-            "world/truth",
-            self.rr.Points3D(rows[:, 2:5], colors=[255, 255, 255], radii=0.008, labels=[f"truth {int(o)}" for o in rows[:, 1]], show_labels=False),
-        )
-        tracks = result.confirmed
-        if len(rows) and tracks:
-            est = np.array([t.position for t in tracks])
-            dist = np.linalg.norm(est[:, None, :] - rows[None, :, 2:5], axis=2).min(axis=1)
-            self._series.add("stats/error_mm/mean", result.frame.index, now, 1000.0 * float(dist.mean()))
-            self._series.add("stats/error_mm/max", result.frame.index, now, 1000.0 * float(dist.max()))
+        if self._truth is not None and confirmed:  # distance from each confirmed track to its nearest true ball
+            truth, truth_frames = self._truth
+            lo, hi = np.searchsorted(truth_frames, [frame, frame + 1])
+            if hi > lo:
+                est = np.array([t.position for t in confirmed])
+                dist = np.linalg.norm(est[:, None, :] - truth[None, lo:hi, 2:5], axis=2).min(axis=1)
+                add("stats/error_mm/mean", 1000.0 * float(dist.mean()))
+                add("stats/error_mm/max", 1000.0 * float(dist.max()))
 
     # ----------------------------------------------------------------- end
 

@@ -120,6 +120,11 @@ def read_rrd(path: Path) -> dict[str, list[dict]]:
     return rows
 
 
+def frames_of(rows: list[dict]) -> list[int]:
+    """The frames an entity was logged at (static rows, e.g. a fixed fill mode, left out)."""
+    return [r["frame"] for r in rows if r["frame"] is not None]
+
+
 def latest(rows: list[dict], component: str, frame: int):
     """The component's value at a frame (static rows count for every frame)."""
     found = [r[component] for r in rows if component in r and r[component] is not None and r["frame"] in (frame, None)]
@@ -247,7 +252,7 @@ def test_decimation_and_particle_limit(tmp_path):
     path = tmp_path / "thin.rrd"
     log_run(path, n=10, settings=VizSettings(every=3, max_particles=100, images=False, trail_seconds=0.5))
     rows = read_rrd(path)
-    assert [r["frame"] for r in rows["world/tracks"]] == [0, 3, 6, 9]
+    assert frames_of(rows["world/tracks"]) == [0, 3, 6, 9]
     assert all(len(r["Points3D:positions"]) == 100 for r in rows["world/particles/green"])
     assert "world/cameras/cam0/image" not in rows and "world/cameras/cam0/tracks" in rows
     # Trails follow every frame, not only logged ones: 0.5 s at 30 frames/s.
@@ -339,7 +344,7 @@ def test_ctrl_c_leaves_a_readable_rrd(tmp_path):
     assert "interrupted" in out and proc.returncode == 0
     verify = subprocess.run([RERUN, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
     assert verify.returncode == 0, verify.stderr  # footer included: close() ran
-    frames = [r["frame"] for r in read_rrd(rrd)["world/tracks"]]
+    frames = frames_of(read_rrd(rrd)["world/tracks"])
     assert frames[:6] == list(range(6))
 
 
@@ -432,7 +437,7 @@ def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path
     assert proc.returncode == 130 and "interrupted" in err
     verify = subprocess.run([RERUN, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
     assert verify.returncode == 0, verify.stderr
-    frames = [r["frame"] for r in read_rrd(rrd)["world/tracks"]]
+    frames = frames_of(read_rrd(rrd)["world/tracks"])
     # --realtime skips frames it is late for, as a live camera would: increasing, not contiguous.
     assert 4 <= len(frames) and frames[-1] < 39 and frames == sorted(set(frames))
 
@@ -502,6 +507,55 @@ def test_live_sink_skips_frames_rather_than_hold_the_tracker(tmp_path, monkeypat
     held = time.perf_counter() - start
     sink.close()
     assert held < 0.5  # 30 frames at 50 ms of logging each would hold a waiting tracker 1.5 s
-    frames = [r["frame"] for r in read_rrd(path)["world/tracks"]]
+    frames = frames_of(read_rrd(path)["world/tracks"])
     assert 1 <= len(frames) < 30 and sink.skipped == 30 - len(frames)
     assert frames == sorted(frames) and frames[0] == 0
+
+
+def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
+    """Frames are sent as columns in batches; the file holds the same as if each frame were sent on its own."""
+    import stereotrack.viz as viz
+
+    truth = truth_for(range(12))
+    files = {}
+    for batch in (1, 5, viz.BATCH):  # 5: batches split mid-run, trails handed out frames before they are sent
+        monkeypatch.setattr(viz, "BATCH", batch)
+        log_run(tmp_path / f"b{batch}.rrd", truth=truth)
+        files[batch] = read_rrd(tmp_path / f"b{batch}.rrd")
+
+    def by_frame(rows):
+        return {
+            path: {(r["frame"], name): value for r in entity for name, value in r.items() if name != "frame" and value is not None}
+            for path, entity in rows.items()
+            if not path.startswith("__") and path != "stats/rate/frames_per_s"  # recording properties and wall-clock rates differ
+        }
+
+    one = by_frame(files[1])
+    assert len(one["world/tracks"]) > 12 and "world/cameras/cam0/image" in one
+    for batch in (5, viz.BATCH):
+        other = by_frame(files[batch])
+        assert set(other) == set(one)
+        for path in one:
+            assert other[path].keys() == one[path].keys(), path
+            for key, value in one[path].items():
+                assert other[path][key] == value, (path, key)
+
+
+def test_a_slow_camera_gets_its_frames_sent_without_a_full_batch(tmp_path, monkeypatch):
+    import stereotrack.viz as viz
+
+    rig, rng = make_rig(), np.random.default_rng(0)
+    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "slow.rrd"), VizSettings(images=False))
+    sent, send = [], sink._send
+    monkeypatch.setattr(sink, "_send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
+    start = time.monotonic()
+    for f in range(2):
+        sink.write(make_result(rig, f, rng, n_particles=60))
+    while not sent and time.monotonic() < start + 10:
+        time.sleep(0.01)
+    try:
+        assert sent and sent[0][1] == [0, 1]
+        assert sent[0][0] - start < viz.BATCH_SECONDS + 1.0  # the time limit, not a full batch, sent them
+    finally:
+        sink.close()
+    assert frames_of(read_rrd(tmp_path / "slow.rrd")["world/tracks"]) == [0, 1]
