@@ -61,11 +61,9 @@ def _log_gauss(X: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.ndarray
     """log N(x | mean_k, cov_k) for every point and component: N x K."""
     inv = np.linalg.inv(covs)  # K x 3 x 3
     _, logdet = np.linalg.slogdet(covs)
-    out = np.empty((len(X), len(means)))
-    for k in range(len(means)):  # K is small (balls); each term is vectorised over particles
-        d = X - means[k]
-        out[:, k] = ((d @ inv[k]) * d).sum(axis=1)
-    return -0.5 * (out + logdet + 3 * _LOG2PI)
+    d = X[None] - means[:, None]  # K x N x 3
+    maha = (np.matmul(d, inv) * d).sum(axis=2).T  # N x K
+    return -0.5 * (maha + logdet + 3 * _LOG2PI)
 
 
 def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarray, iterations: int, reg: float):
@@ -82,10 +80,8 @@ def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarra
         rw = resp * w[:, None]  # N x K
         nk = rw.sum(axis=0) + 1e-300
         means = (rw.T @ X) / nk[:, None]
-        covs = np.empty((k, 3, 3))
-        for j in range(k):
-            d = X - means[j]
-            covs[j] = (rw[:, j, None] * d).T @ d / nk[j] + eye
+        d = X[None] - means[:, None]  # K x N x 3
+        covs = np.matmul((rw.T[:, :, None] * d).transpose(0, 2, 1), d) / nk[:, None, None] + eye
         pis = nk / nk.sum()
     return means, covs, pis, resp
 
@@ -112,39 +108,37 @@ def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) ->
     return np.searchsorted(cdf, u, side="right").clip(0, len(weights) - 1)
 
 
-def _seeds(X, w, prev_means, radius, min_mass, max_objects, cameras):
+def _seeds(X, w, prev_means, radius, min_mass, max_objects, views):
     """Warm-start seeds (previous objects with mass nearby) + greedy new modes.
 
     A new seed claims the particles that are the same ball as it: within
     ``2 R`` in 3D, or inside its apparent disc in every camera (a ball's cloud
     is long along the viewing direction, short across it).
     """
-    views = []
-    for cam in cameras:
-        uv, ok = cam.project(X)
-        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.maximum(cam.depth(X), 1e-6)
-        views.append((uv, ok, r_px))
 
     def same_ball(centre_index: int) -> np.ndarray:
         near = ((X - X[centre_index]) ** 2).sum(1) < (2 * radius) ** 2
         disc = np.ones(len(X), bool)
-        for uv, ok, r_px in views:
-            disc &= ok & (((uv - uv[centre_index]) ** 2).sum(1) < r_px[centre_index] ** 2)
+        for uv, ok, f_over_z in views:
+            disc &= ok & (((uv - uv[centre_index]) ** 2).sum(1) < (radius * f_over_z[centre_index]) ** 2)
         return near | disc
+
+    def centre(sel: np.ndarray) -> np.ndarray:
+        return w[sel] @ X[sel] / w[sel].sum()
 
     seeds = []
     free = np.ones(len(X), bool)
     for m in prev_means:
         near = ((X - m) ** 2).sum(1) < (2 * radius) ** 2
         if w[near].sum() >= min_mass:
-            seeds.append(np.average(X[near], axis=0, weights=w[near]))
+            seeds.append(centre(near))
             free &= ~near
     while len(seeds) < max_objects and free.any():
         i = np.flatnonzero(free)[np.argmax(w[free])]
         claim = same_ball(i) & free
         free &= ~claim
         if w[claim].sum() >= min_mass:
-            seeds.append(np.average(X[claim], axis=0, weights=w[claim]))
+            seeds.append(centre(claim))
     return np.array(seeds).reshape(-1, 3)
 
 
@@ -158,28 +152,42 @@ def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, n
     return out
 
 
-def _projected_spread(views, X: np.ndarray, w: np.ndarray, member: np.ndarray, radius: float):
-    """Largest ratio (projected std / apparent ball radius) over cameras for one cluster, and the two halves to split it into."""
-    best, halves = 0.0, None
-    for uv_all, ok_all, f_over_z in views:
-        sel = member & ok_all
-        if sel.sum() < 3:
-            continue
-        uv, ww = uv_all[sel], w[sel] / w[sel].sum()
-        c = ww @ uv
-        d = uv - c
-        cov = (ww[:, None] * d).T @ d
-        evals, evecs = np.linalg.eigh(cov)
-        r_px = radius * float(ww @ f_over_z[sel])
-        ratio = np.sqrt(max(evals[-1], 0.0)) / r_px
-        if ratio > best:
-            # Split across the image's principal axis of the cluster's projection.
-            hi = d @ evecs[:, -1] > 0
-            if hi.any() and (~hi).any():
-                Xs = X[sel]
-                best = ratio
-                halves = (np.average(Xs[hi], axis=0, weights=ww[hi]), np.average(Xs[~hi], axis=0, weights=ww[~hi]))
-    return best, halves
+def _projected_spreads(views, w: np.ndarray, labels: np.ndarray, k: int, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per cluster: the largest ratio (projected std / apparent ball radius) over cameras, and that camera's index.
+
+    Weighted image moments of every cluster at once (bincount), with the
+    largest eigenvalue of each 2 x 2 covariance in closed form.
+    """
+    best = np.zeros(k)
+    which = np.zeros(k, int)
+    member = labels >= 0
+    for j, (uv, ok, f_over_z) in enumerate(views):
+        sel = member & ok
+        lab, ww, u, v = labels[sel], w[sel], uv[sel, 0], uv[sel, 1]
+        m = lambda x: np.bincount(lab, weights=ww * x, minlength=k)  # noqa: E731
+        s0 = np.maximum(np.bincount(lab, weights=ww, minlength=k), 1e-300)
+        cu, cv = m(u) / s0, m(v) / s0
+        suu, svv, suv = m(u * u) / s0 - cu**2, m(v * v) / s0 - cv**2, m(u * v) / s0 - cu * cv
+        lam = 0.5 * (suu + svv) + np.sqrt(np.maximum(0.25 * (suu - svv) ** 2 + suv**2, 0.0))
+        r_px = radius * m(f_over_z) / s0  # the cluster's apparent ball radius, pixels
+        ratio = np.where(np.bincount(lab, minlength=k) >= 3, np.sqrt(np.maximum(lam, 0.0)) / np.maximum(r_px, 1e-9), 0.0)
+        better = ratio > best
+        best, which = np.where(better, ratio, best), np.where(better, j, which)
+    return best, which
+
+
+def _split_halves(views, X: np.ndarray, w: np.ndarray, member: np.ndarray, camera: int):
+    """The two halves of one cluster across the principal axis of its projection in ``camera``."""
+    uv_all, ok_all, _ = views[camera]
+    sel = member & ok_all
+    uv, ww = uv_all[sel], w[sel] / w[sel].sum()
+    d = uv - ww @ uv
+    _, evecs = np.linalg.eigh((ww[:, None] * d).T @ d)
+    hi = d @ evecs[:, -1] > 0
+    if not hi.any() or hi.all():
+        return None
+    Xs = X[sel]
+    return (ww[hi] @ Xs[hi] / ww[hi].sum(), ww[~hi] @ Xs[~hi] / ww[~hi].sum())
 
 
 def _merge_pair(cameras: Sequence[Camera], means: np.ndarray, radius: float) -> tuple[int, int] | None:
@@ -227,11 +235,11 @@ def cluster_particles(
     R = settings.radius
     reg = (R / 4) ** 2
     prev = np.zeros((0, 3)) if prev_means is None else prev_means
-    means = _seeds(X, w, prev, R, settings.min_mass, settings.max_objects, cameras)
+    views = _views(cameras, X)
+    means = _seeds(X, w, prev, R, settings.min_mass, settings.max_objects, views)
     if len(means) == 0:
         return _empty(n)
     covs = np.repeat((np.eye(3) * R * R)[None], len(means), axis=0)
-    views = _views(cameras, X)
     for _round in range(4):  # ISODATA: EM, then discard / merge / split, until stable
         iterations = settings.em_iterations if _round == 0 else 2  # later rounds only settle local changes
         if settings.method == "sklearn":
@@ -261,9 +269,12 @@ def cluster_particles(
             new_means, new_covs = [], []
             # A cluster whose 3D spread is under one radius cannot look wider than one ball.
             wide = np.sqrt(np.linalg.eigvalsh(covs)[:, -1]) > settings.split_factor * R
+            ratios, cams = _projected_spreads(views, w, labels, len(means), R)
+            ratios = np.where(wide, ratios, 0.0)
             for k in range(len(means)):
-                ratio, halves = _projected_spread(views, X, w, labels == k, R) if wide[k] else (0.0, None)
-                if ratio > settings.split_factor and halves is not None and len(means) + len(new_means) < settings.max_objects:
+                split = ratios[k] > settings.split_factor and len(means) + len(new_means) < settings.max_objects
+                halves = _split_halves(views, X, w, labels == k, cams[k]) if split else None
+                if halves is not None:
                     new_means += list(halves)
                     new_covs += [np.eye(3) * R * R] * 2
                     changed = True

@@ -116,11 +116,9 @@ class TrackManager:
         state after the previous update. Call it before ``update`` with the
         same time, e.g. to keep particles of one ball out of another ball.
         """
-        out = []
-        for tr in self._tracks:
-            x, P = self._predict(tr, time)
-            out.append(self._estimate(tr, x, P))
-        return tuple(out)
+        states = [self._predict(tr, time) for tr in self._tracks]
+        seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
+        return tuple(self._estimate(tr, x, P, v) for tr, (x, P), v in zip(self._tracks, states, seen))
 
     def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
         """Take this frame's objects (seen at ``time`` seconds); return every live track after the update.
@@ -166,7 +164,8 @@ class TrackManager:
                 self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time))
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
-        return tuple(self._estimate(t, t.x, t.P) for t in self._tracks)
+        seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
+        return tuple(self._estimate(t, t.x, t.P, v) for t, v in zip(self._tracks, seen))
 
     def reset(self) -> None:
         """Forget every track (ids keep counting up: they stay unique within the run)."""
@@ -244,21 +243,21 @@ class TrackManager:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
         return time - tr.last_hit > limit + _EPS_TIME
 
-    def _in_view(self, position: np.ndarray) -> bool:
-        if self.rig is None:
-            return True
+    def _in_view(self, positions: np.ndarray) -> np.ndarray:
+        """Per position: inside every camera's image (always true without a rig)."""
+        inside = np.ones(len(positions), bool)
+        if self.rig is None or not len(positions):
+            return inside
         for cam in self.rig.cameras:
-            uv, ok = cam.project(position[None])
-            u, v = uv[0]
-            if not (ok[0] and 0 <= u < cam.width and 0 <= v < cam.height):
-                return False
-        return True
+            uv, ok = cam.project(positions)
+            inside &= ok & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+        return inside
 
-    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray) -> TrackEstimate:
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
-        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and self._in_view(x[:3])
+        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view
         reported = tr.confirmed and (tr.hit or coasting_ok)
         return TrackEstimate(
             track_id=tr.track_id,
