@@ -76,10 +76,10 @@ PALETTE_RGBA = packed_rgba(PALETTE)
 # Particles by shade: the palette, then unclustered; then the same lighter for abductive particles.
 PARTICLE_RGBA = packed_rgba(np.vstack([PALETTE, UNCLUSTERED, (np.vstack([PALETTE, UNCLUSTERED]).astype(np.uint16) + 255) // 2]))
 SEQUENTIAL, ABDUCTIVE = 0, 1  # particle class ids
-# Logged frames are sent to rerun as columns: one send_columns per entity for BATCH frames, or for what is
-# pending once the first frame has waited BATCH_SECONDS (the live view's extra latency). A call costs about
-# the same for 1 frame as for 15, so this is ~15x fewer calls than one log call per entity and frame.
-BATCH = 15
+# Logged frames are sent to rerun as columns: one send_columns per entity for what is pending once the first
+# frame has waited BATCH_SECONDS (the live view's extra latency: ~8 frames of a 30 frames/s camera), or for
+# BATCH frames when they come faster (a recording). A call costs about the same for 1 frame as for 30.
+BATCH = 30
 BATCH_SECONDS = 0.25
 QUEUE = 8  # frames the logging thread may lag behind the tracker before write() waits
 
@@ -92,6 +92,7 @@ class VizSettings:
     max_particles: int = 500  # per target and frame; more are subsampled at random (seeded)
     images: bool = True  # log the camera images
     jpeg_quality: int = 75  # JPEG-compress images at this quality (1..100); 0 logs raw BGR pixels
+    image_scale: float = 0.5  # log images at this fraction of their size (0 < s <= 1); overlays keep the camera's pixels
     masks: bool = False  # log the colour masks as a layer over each image
     rays: bool = False  # log the abduction's viewing rays
     trail_seconds: float = 2.0  # length of each track's fading trail
@@ -359,6 +360,11 @@ class RerunSink:
         import cv2
 
         self._jpeg_params = [cv2.IMWRITE_JPEG_QUALITY, int(settings.jpeg_quality)]
+        if not 0 < settings.image_scale <= 1:
+            raise StereotrackError(f"image scale must be in (0, 1], got {settings.image_scale}")
+        # The size each camera's image is logged at; 2x smaller: bilinear is the 2x2 mean, and cheaper than INTER_AREA.
+        self._image_sizes = [(max(1, round(c.width * settings.image_scale)), max(1, round(c.height * settings.image_scale))) for c in rig.cameras]
+        self._resize = cv2.INTER_LINEAR if settings.image_scale >= 0.5 else cv2.INTER_AREA
         self._children: list[subprocess.Popen] = []
         self._n_written = 0
         self.skipped = 0  # frames not logged because logging lagged (skip_when_behind)
@@ -383,6 +389,7 @@ class RerunSink:
         self._log_static()
         self._components: dict[tuple[type, str], tuple[Any, Any]] = {}  # (archetype, field) -> descriptor, batch class
         self._packed_colours: dict[str, int] = {}
+        self._subsets: dict[int, np.ndarray] = {}  # population size -> the particles logged
         self._series = SeriesBuffer(rr, self._rows)
         self._batch: list[Pending] = []  # logged frames not sent yet (the logging thread's own)
         self._batch_started = 0.0  # time.monotonic() when the first of them arrived
@@ -449,10 +456,12 @@ class RerunSink:
             static=True,
         )
         # What never changes is logged once, static; the batches carry only what changes from frame to frame.
-        for cam in self.rig.cameras:
+        for cam, (w, h) in zip(self.rig.cameras, self._image_sizes):
             path = f"world/cameras/{cam.name}"
             if self.settings.images and self.settings.jpeg_quality > 0:
                 rec.log(f"{path}/image", rr.EncodedImage.from_fields(media_type="image/jpeg"), static=True)
+            if self.settings.images and (w, h) != (cam.width, cam.height):  # a smaller image drawn over the camera's full pixel grid
+                rec.log(f"{path}/image", rr.Transform3D(scale=[cam.width / w, cam.height / h, 1.0]), static=True)
             rec.log(f"{path}/tracks", rr.Points2D.from_fields(radii=4.0), static=True)
         rec.log("world/objects", rr.Points3D.from_fields(radii=0.01, show_labels=False), static=True)
         rec.log("world/tracks", rr.Ellipsoids3D.from_fields(fill_mode=rr.components.FillMode.Solid), static=True)
@@ -563,11 +572,9 @@ class RerunSink:
         offsets: dict[str, int] = {}  # index of each target's first object: particle labels count per target
         for i, obj in enumerate(result.objects):
             offsets.setdefault(obj.target, i)
-        limit = s.max_particles
         particles = []
         for ps in result.particles:
-            n = len(ps.positions)
-            keep = np.sort(self._rng.choice(n, size=limit, replace=False)) if n > limit else slice(None)
+            keep = self._subsample(len(ps.positions))
             particles.append((ps.target, ps.positions[keep], ps.labels[keep], ps.abductive[keep], offsets.get(ps.target, 0)))
         trails = []
         for k, t in enumerate(confirmed):
@@ -576,11 +583,31 @@ class RerunSink:
                 trails.append((k, *trail.arrays()))  # views: a Trail never rewrites points it has handed out
         return Pending(result.frame.index, now, result.objects, confirmed, jpegs, particles, trails)
 
+    def _subsample(self, n: int) -> np.ndarray | slice:
+        """Which of n particles to log: all up to max_particles, else a seeded random subset of that many.
+
+        The subset is drawn once per population size and reused: each frame's
+        resampled population is still shown through a uniform random sample.
+        """
+        limit = self.settings.max_particles
+        if n <= limit:
+            return slice(None)
+        if n not in self._subsets:
+            self._subsets[n] = np.sort(self._rng.choice(n, size=limit, replace=False))
+        return self._subsets[n]
+
     def _encode_images(self, result: FrameResult) -> list[np.ndarray]:
-        """Each camera's image as JPEG bytes (OpenCV's libjpeg-turbo; it releases the GIL while it encodes)."""
+        """Each camera's image, scaled, as JPEG bytes (OpenCV's libjpeg-turbo; it releases the GIL while it encodes)."""
         import cv2
 
-        return [cv2.imencode(".jpg", img, self._jpeg_params)[1] for img in result.frame.images[: len(self.rig.cameras)]]
+        return [cv2.imencode(".jpg", self._scaled(img, ci), self._jpeg_params)[1] for ci, img in enumerate(result.frame.images[: len(self.rig.cameras)])]
+
+    def _scaled(self, img: np.ndarray, ci: int) -> np.ndarray:
+        """A camera's image at the size it is logged at (VizSettings.image_scale)."""
+        import cv2
+
+        size = self._image_sizes[ci]
+        return img if (img.shape[1], img.shape[0]) == size else cv2.resize(img, size, interpolation=self._resize)
 
     def _flush(self) -> None:
         batch, self._batch = self._batch, []
@@ -756,7 +783,7 @@ class RerunSink:
         for ci, cam in enumerate(self.rig.cameras):
             path = f"world/cameras/{cam.name}"
             if s.images and s.jpeg_quality == 0 and ci < len(result.frame.images):
-                rec.log(f"{path}/image", rr.Image(result.frame.images[ci], color_model="BGR"))
+                rec.log(f"{path}/image", rr.Image(self._scaled(result.frame.images[ci], ci), color_model="BGR"))
             if s.masks:
                 self._log_mask(result, cam.name, path)
         if s.rays:
@@ -814,8 +841,8 @@ class RerunSink:
             truth, truth_frames = self._truth
             lo, hi = np.searchsorted(truth_frames, [frame, frame + 1])
             if hi > lo:
-                est = np.array([t.position for t in confirmed])
-                dist = np.linalg.norm(est[:, None, :] - truth[None, lo:hi, 2:5], axis=2).min(axis=1)
+                d = np.array([t.position for t in confirmed])[:, None, :] - truth[None, lo:hi, 2:5]
+                dist = np.sqrt((d * d).sum(axis=2).min(axis=1))
                 add("stats/error_mm/mean", 1000.0 * float(dist.mean()))
                 add("stats/error_mm/max", 1000.0 * float(dist.max()))
 
@@ -920,6 +947,16 @@ def _quality(text: str) -> int:
     return value
 
 
+def _scale(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0 < value <= 1:
+        raise argparse.ArgumentTypeError(f"must be more than 0 and at most 1, got {value}")
+    return value
+
+
 def _seconds(text: str) -> float:
     try:
         value = float(text)
@@ -949,6 +986,10 @@ def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
         "--viz-jpeg-quality", metavar="Q", type=_quality, default=VizSettings.jpeg_quality,
         help=f"JPEG quality of logged images, 1..100; 0 logs raw pixels (default {VizSettings.jpeg_quality})",
     )
+    g.add_argument(
+        "--viz-image-scale", metavar="S", type=_scale, default=VizSettings.image_scale,
+        help=f"log camera images at S times their size, 0 < S <= 1; overlays stay in the camera's pixels (default {VizSettings.image_scale})",
+    )
     g.add_argument("--no-images", action="store_true", help="do not log camera images")
     g.add_argument("--viz-masks", action="store_true", help="log the colour masks as a layer over each image")
     g.add_argument("--viz-rays", action="store_true", help="log the abduction's viewing rays")
@@ -961,6 +1002,7 @@ def viz_settings_from_args(args: argparse.Namespace, seed: int = 0, live: bool =
         max_particles=args.viz_max_particles,
         images=not args.no_images,
         jpeg_quality=args.viz_jpeg_quality,
+        image_scale=args.viz_image_scale,
         masks=args.viz_masks,
         rays=args.viz_rays,
         trail_seconds=args.viz_trail,

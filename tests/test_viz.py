@@ -206,13 +206,15 @@ def test_a_world_point_projects_to_where_it_was_drawn_in_2d(run12):
             drawn = np.array(latest(rows[f"world/cameras/{cam}/tracks"], "Points2D:positions", frame))
             assert latest(rows[f"world/cameras/{cam}/tracks"], "Points2D:labels", frame) == ["#1", "#2", "#3"]
             np.testing.assert_allclose(uv, drawn, atol=0.01)
-            # ... and the logged image has the ball's colour at that pixel.
+            # ... and the logged image, drawn over the camera's pixels by its scale, has the ball's colour at that pixel.
             blob = latest(rows[f"world/cameras/{cam}/image"], "EncodedImage:blob", frame)[0]
             img = cv2.imdecode(np.frombuffer(bytes(blob), np.uint8), cv2.IMREAD_COLOR)
-            assert img.shape == (H, W, 3)
-            for (u, v), name in zip(uv, BALL_TARGET):
-                want = target_colour(next(t for t in TARGETS if t.name == name))[::-1].astype(int)
-                assert np.abs(img[int(round(v)), int(round(u))].astype(int) - want).max() < 40
+            assert img.shape == (H // 2, W // 2, 3)  # the default image scale, 0.5
+            assert latest(rows[f"world/cameras/{cam}/image"], "Transform3D:scale", frame) == [[2.0, 2.0, 1.0]]
+            colours = {t.name: target_colour(t)[::-1].astype(int) for t in TARGETS} | {"background": np.array([90, 90, 90])}
+            for (u, v), name in zip(uv, BALL_TARGET):  # the balls are 2-3 pixels wide there: the nearest colour names the ball
+                pixel = img[int(round(v)) // 2, int(round(u)) // 2].astype(int)
+                assert min(colours, key=lambda c: np.abs(pixel - colours[c]).sum()) == name, (pixel, name)
 
 
 def test_particles_keep_their_classes_and_cluster_colours(run12):
@@ -270,11 +272,12 @@ def test_raw_images_masks_and_rays(tmp_path):
     o, d = cam.rays(np.array([[100.0, 120.0], [200.0, 80.0]]))
     result = FrameResult(result.frame, result.particles, result.objects, result.tracks, (Rays("green", "cam1", o, d, np.zeros((2, 2))),), result.masks)
     path = tmp_path / "raw.rrd"
-    with RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(jpeg_quality=0, masks=True, rays=True)) as sink:
+    with RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(jpeg_quality=0, image_scale=1.0, masks=True, rays=True)) as sink:
         sink.write(result)
     rows = read_rrd(path)
     fmt = latest(rows["world/cameras/cam0/image"], "Image:format", 0)[0]
     assert fmt["width"] == W and fmt["height"] == H
+    assert all("Transform3D:scale" not in r for r in rows["world/cameras/cam0/image"])  # full size: drawn as is
     mask = latest(rows["world/cameras/cam1/mask"], "SegmentationImage:buffer", 0)[0]
     assert np.count_nonzero(mask) == 100 and set(mask) == {0, 2}  # class 2 = the second target, green
     strips = np.array(latest(rows["world/rays/green/cam1"], "LineStrips3D:strips", 0))
@@ -287,17 +290,18 @@ def test_flags_and_no_viewer_means_no_rerun(tmp_path):
     parser = argparse.ArgumentParser()
     add_viz_arguments(parser)
     assert make_viz_sink(parser.parse_args([]), make_rig(), Config(targets=TARGETS)) is None
-    args = parser.parse_args(["--rrd", str(tmp_path / "a" / "b.rrd"), "--viz-every", "2", "--no-images"])
+    args = parser.parse_args(["--rrd", str(tmp_path / "a" / "b.rrd"), "--viz-every", "2", "--no-images", "--viz-image-scale", "0.75"])
     sink = make_viz_sink(args, make_rig(), Config(targets=TARGETS))
-    assert sink.settings.every == 2 and not sink.settings.images
+    assert sink.settings.every == 2 and not sink.settings.images and sink.settings.image_scale == 0.75
     sink.close()
     assert (tmp_path / "a" / "b.rrd").is_file()
     with pytest.raises(StereotrackError, match="--connect"):
         make_viz_sink(parser.parse_args(["--connect", "http://x/y"]), make_rig(), Config())
     with pytest.raises(StereotrackError, match="is a folder"):
         make_viz_sink(parser.parse_args(["--rrd", str(tmp_path)]), make_rig(), Config())
-    with pytest.raises(SystemExit):
-        parser.parse_args(["--viz-every", "0"])
+    for bad in (["--viz-every", "0"], ["--viz-image-scale", "0"], ["--viz-image-scale", "1.5"]):
+        with pytest.raises(SystemExit):
+            parser.parse_args(bad)
     # Without a viewer flag nothing imports rerun.
     code = "import sys, stereotrack.viz, stereotrack.results; assert 'rerun' not in sys.modules, 'rerun imported'"
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
@@ -559,3 +563,17 @@ def test_a_slow_camera_gets_its_frames_sent_without_a_full_batch(tmp_path, monke
     finally:
         sink.close()
     assert frames_of(read_rrd(tmp_path / "slow.rrd")["world/tracks"]) == [0, 1]
+
+
+def test_images_at_another_scale_cover_the_cameras_pixels(tmp_path):
+    rig = make_rig()
+    result = make_result(rig, 0, np.random.default_rng(3))
+    path = tmp_path / "scaled.rrd"
+    with RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(image_scale=0.7)) as sink:
+        sink.write(result)
+    rows = read_rrd(path)
+    blob = latest(rows["world/cameras/cam0/image"], "EncodedImage:blob", 0)[0]
+    img = cv2.imdecode(np.frombuffer(bytes(blob), np.uint8), cv2.IMREAD_COLOR)
+    assert img.shape == (168, 224, 3)  # 0.7 x 240, 0.7 x 320
+    sx, sy, sz = latest(rows["world/cameras/cam0/image"], "Transform3D:scale", 0)[0]
+    assert (sx * 224, sy * 168, sz) == pytest.approx((W, H, 1.0))  # the image spans the camera's W x H pixels
