@@ -8,7 +8,12 @@ flushes the file and writes its footer, is). Runs alternate
 (plain, rerun, plain, rerun, ...) so the shared machine's noise hits both
 alike; the figure is the ratio of the medians.
 
-    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6]
+Then one more run with the sink's parts timed (CPU time of the thread each
+part runs in, so other load on the machine does not inflate them): what the
+logging costs per logged frame, on the tracker's thread, in the sink's logging
+thread (by part) and in rerun's own threads (encoding and writing the file).
+
+    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6] [--every N] [--no-images]
 """
 
 from __future__ import annotations
@@ -16,14 +21,16 @@ from __future__ import annotations
 import argparse
 import statistics
 import tempfile
+import threading
 import time
+from collections import defaultdict
 from pathlib import Path
 
 from stereotrack.config import load_config
 from stereotrack.pipeline import Tracker, run_pipeline
 from stereotrack.recording import open_recording, read_truth
 from stereotrack.synth import make_preset, render_scene
-from stereotrack.viz import RerunSink, VizOutputs, VizSettings
+from stereotrack.viz import RerunSink, SeriesBuffer, VizOutputs, VizSettings
 
 
 class TimedSink:
@@ -43,6 +50,132 @@ class TimedSink:
         self.seconds += time.perf_counter() - t
 
 
+# The logging thread's parts: (class, method) -> label. _rows (one send_columns) is split by entity below.
+PARTS = {
+    (RerunSink, "_encode_images"): "images scaled + JPEG-encoded (both cameras)",
+    (RerunSink, "_gather"): "gathering a frame (particle subsample, trail views)",
+    (RerunSink, "_follow_trails"): "trails follow the tracks",
+    (RerunSink, "_log_stats"): "time-series values",
+    (RerunSink, "_send"): "batch: arrays built (projections, colours, eigen)",
+    (SeriesBuffer, "flush"): "batch: time series sent",
+    (RerunSink, "_rows"): "batch: sent",
+}
+GROUPS = (  # entity path prefix -> label, first match
+    ("stats/", "batch: time series sent"),
+    ("world/cameras/", "batch: sent, per camera (JPEG blobs, windows, marks)"),
+    ("world/tracks", "batch: sent, tracks + covariance + trails"),
+    ("world/particles", "batch: sent, particles"),
+    ("world/objects", "batch: sent, objects"),
+    ("world/truth", "batch: sent, truth"),
+)
+
+
+def timed_parts():
+    """Wrap the sink's parts so each adds its thread's CPU time (exclusive of parts inside it) to a total."""
+    totals: dict[str, float] = defaultdict(float)
+    local = threading.local()
+    originals = {}
+
+    def wrap(cls, name, label):
+        fn = getattr(cls, name)
+        originals[(cls, name)] = fn
+
+        def timed(self, *args, **kwargs):
+            key = label
+            if name == "_rows":
+                key = next((lb for prefix, lb in GROUPS if args[0].startswith(prefix)), label)
+            stack = local.__dict__.setdefault("stack", [])
+            stack.append(0.0)
+            start = time.thread_time()
+            try:
+                return fn(self, *args, **kwargs)
+            finally:
+                spent = time.thread_time() - start
+                inner = stack.pop()
+                totals[key] += spent - inner
+                if stack:
+                    stack[-1] += spent
+
+        setattr(cls, name, timed)
+
+    for (cls, name), label in PARTS.items():
+        wrap(cls, name, label)
+
+    def work(self):  # the whole logging thread's CPU time
+        start = time.thread_time()
+        try:
+            originals[(RerunSink, "_work")](self)
+        finally:
+            totals["logging thread, all"] += time.thread_time() - start
+
+    originals[(RerunSink, "_work")] = RerunSink._work
+    RerunSink._work = work
+
+    def restore():
+        for (cls, name), fn in originals.items():
+            setattr(cls, name, fn)
+
+    return totals, restore
+
+
+def breakdown(pairs, rig, config, truth, settings: VizSettings, rrd: Path) -> None:
+    """Print the logging's CPU time per logged frame: the tracker's thread, the logging thread by part."""
+    totals, restore = timed_parts()
+    try:
+        sink = RerunSink(rig, config, VizOutputs(rrd=rrd), settings, truth=truth)
+        tracker = Tracker(rig, config)
+        main = 0.0
+        try:
+            for pair in pairs:
+                result = tracker.step(pair)
+                start = time.thread_time()
+                sink.write(result)
+                main += time.thread_time() - start
+        finally:
+            start = time.thread_time()
+            sink.close()
+            main += time.thread_time() - start
+    finally:
+        restore()
+    logged = len(range(0, len(pairs), settings.every))
+    worker = totals.pop("logging thread, all")
+    print(f"logging cost per logged frame (CPU ms of the thread it runs in, {logged} logged frames):")
+    print(f"  on the tracker's thread (write, close):              {1000 * main / logged:5.2f}")
+    print(f"  in the logging thread:                               {1000 * worker / logged:5.2f}")
+    for label, seconds in sorted(totals.items(), key=lambda kv: -kv[1]):
+        print(f"    {label:51s} {1000 * seconds / logged:5.2f}")
+    print(f"    {'the rest (queue, loop)':51s} {1000 * (worker - sum(totals.values())) / logged:5.2f}")
+
+
+def rerun_threads_ms(pairs, rig, config, truth, settings: VizSettings, rrd: Path) -> float:
+    """CPU ms per logged frame outside this thread and the logging thread (rerun's own threads), tracker results replayed."""
+    tracker = Tracker(rig, config)
+    results = [tracker.step(p) for p in pairs]  # replayed: no tracker threads run while this is measured
+    worker = {"t": 0.0}
+    original = RerunSink._work
+
+    def work(self):
+        start = time.thread_time()
+        try:
+            original(self)
+        finally:
+            worker["t"] = time.thread_time() - start
+
+    RerunSink._work = work
+    try:
+        sink = RerunSink(rig, config, VizOutputs(rrd=rrd), settings, truth=truth)
+        time.sleep(0.2)  # the recording stream's setup is not counted
+        c, t = time.process_time(), time.thread_time()
+        for r in results:
+            sink.write(r)
+        sink.close()
+        time.sleep(0.2)
+        other = (time.process_time() - c) - (time.thread_time() - t) - worker["t"]
+    finally:
+        RerunSink._work = original
+    return 1000 * other / len(range(0, len(pairs), settings.every))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=90)
@@ -50,6 +183,7 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
     ap.add_argument("--no-images", action="store_true", help="do not log camera images")
     args = ap.parse_args()
+    settings = VizSettings(every=args.every, images=not args.no_images)
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = render_scene(make_preset("pendulum4", n_frames=args.frames, width=640, height=480), Path(tmp) / "rec", progress=False)
@@ -65,20 +199,22 @@ def main() -> None:
                 tracker = Tracker(rec.rig, config)
                 sinks = []
                 if mode == "rerun":
-                    sinks = [TimedSink(RerunSink(rec.rig, config, VizOutputs(rrd=rrd), VizSettings(every=args.every, images=not args.no_images), truth=truth))]
+                    sinks = [TimedSink(RerunSink(rec.rig, config, VizOutputs(rrd=rrd), settings, truth=truth))]
                 start = time.perf_counter()  # opening the sink (importing rerun, once per run) is not counted; closing it (flush + footer) is
                 run_pipeline(pairs, tracker, sinks, progress=False)
                 times[mode].append(time.perf_counter() - start)
                 if sinks:
                     sink_ms.append(1000 * sinks[0].seconds / len(pairs))
         size_mb = rrd.stat().st_size / 1e6
-    fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
-    drop = 100 * (1 - fps["rerun"] / fps["plain"])
-    print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else 'on'}")
-    print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
-    print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
-    print(f"time in the rerun sink: {statistics.median(sink_ms):.1f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")
-    print(f".rrd size: {size_mb:.1f} MB ({1000 * size_mb / len(pairs):.0f} kB per frame)")
+        fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
+        drop = 100 * (1 - fps["rerun"] / fps["plain"])
+        print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else 'on'}")
+        print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
+        print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
+        print(f"wall time in the sink's write + close, on the tracker's thread: {statistics.median(sink_ms):.2f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")
+        print(f".rrd size: {size_mb:.1f} MB ({1000 * size_mb / len(pairs):.0f} kB per frame)")
+        breakdown(pairs, rec.rig, config, truth, settings, Path(tmp) / "parts.rrd")
+        print(f"  in other threads (rerun's: chunks encoded, file written): {rerun_threads_ms(pairs, rec.rig, config, truth, settings, Path(tmp) / 'threads.rrd'):5.2f}")
 
 
 if __name__ == "__main__":
