@@ -13,7 +13,7 @@ part runs in, so other load on the machine does not inflate them): what the
 logging costs per logged frame, on the tracker's thread, in the sink's logging
 thread (by part) and in rerun's own threads (encoding and writing the file).
 
-    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6] [--every N] [--no-images]
+    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6] [--every N] [--no-images] [--image-scale S]
 """
 
 from __future__ import annotations
@@ -182,8 +182,9 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=6)
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
     ap.add_argument("--no-images", action="store_true", help="do not log camera images")
+    ap.add_argument("--image-scale", type=float, default=VizSettings.image_scale, help="size the images are logged at (default: the default setting)")
     args = ap.parse_args()
-    settings = VizSettings(every=args.every, images=not args.no_images)
+    settings = VizSettings(every=args.every, images=not args.no_images, image_scale=args.image_scale)
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = render_scene(make_preset("pendulum4", n_frames=args.frames, width=640, height=480), Path(tmp) / "rec", progress=False)
@@ -208,7 +209,7 @@ def main() -> None:
         size_mb = rrd.stat().st_size / 1e6
         fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
         drop = 100 * (1 - fps["rerun"] / fps["plain"])
-        print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else 'on'}")
+        print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else f'at {args.image_scale:g} x their size'}")
         print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
         print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
         print(f"wall time in the sink's write + close, on the tracker's thread: {statistics.median(sink_ms):.2f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")

@@ -25,8 +25,9 @@ since the first logged frame, from the pair's capture timestamps).
 
 Cost: the tracker's thread only queues each FrameResult; a logging thread
 encodes the JPEGs and gathers logged frames, then sends them as columns, one
-``send_columns`` per entity for a batch of frames (BATCH, or what a slow
-camera delivered within BATCH_SECONDS). What never changes (radii, fill modes,
+``send_columns`` per entity for a batch of frames (a quarter of a second's
+when a viewer watches live, more when only a file is written). What never
+changes (radii, fill modes,
 media type) is logged once, static. BENCHMARKS.md, ``viewer``, has the figures.
 """
 
@@ -77,10 +78,12 @@ PALETTE_RGBA = packed_rgba(PALETTE)
 PARTICLE_RGBA = packed_rgba(np.vstack([PALETTE, UNCLUSTERED, (np.vstack([PALETTE, UNCLUSTERED]).astype(np.uint16) + 255) // 2]))
 SEQUENTIAL, ABDUCTIVE = 0, 1  # particle class ids
 # Logged frames are sent to rerun as columns: one send_columns per entity for what is pending once the first
-# frame has waited BATCH_SECONDS (the live view's extra latency: ~8 frames of a 30 frames/s camera), or for
-# BATCH frames when they come faster (a recording). A call costs about the same for 1 frame as for 30.
-BATCH = 30
-BATCH_SECONDS = 0.25
+# frame has waited BATCH_SECONDS (a live viewer's extra latency: ~8 frames of a 30 frames/s camera), or for
+# BATCH frames when they come faster. A call costs about the same for 1 frame as for 90, so when only a file
+# is written (nobody watches the latency) batches are bigger: the logging thread's Python time, which holds
+# the GIL against the tracker, is a third lower at 90 frames than at 30.
+BATCH, BATCH_SECONDS = 30, 0.25  # a viewer watches (--spawn, --connect, --serve)
+FILE_BATCH, FILE_BATCH_SECONDS = 90, 5.0  # only a file
 QUEUE = 8  # frames the logging thread may lag behind the tracker before write() waits
 
 
@@ -393,6 +396,8 @@ class RerunSink:
         self._series = SeriesBuffer(rr, self._rows)
         self._batch: list[Pending] = []  # logged frames not sent yet (the logging thread's own)
         self._batch_started = 0.0  # time.monotonic() when the first of them arrived
+        watched = outputs.spawn or outputs.connect or outputs.serve
+        self._batch_frames, self._batch_seconds = (BATCH, BATCH_SECONDS) if watched else (FILE_BATCH, FILE_BATCH_SECONDS)
         self._worker.start()
 
     # ----------------------------------------------------------------- setup
@@ -524,11 +529,11 @@ class RerunSink:
     def _work(self) -> None:
         """The logging thread: rerun's time is per thread, so every timed log call happens here.
 
-        Logged frames are gathered and sent as columns once BATCH of them are
-        pending, or once the first has waited BATCH_SECONDS (a slow live camera).
+        Logged frames are gathered and sent as columns once a batch's worth
+        are pending, or once the first has waited its time (a slow camera).
         """
         while True:
-            timeout = None if not self._batch else max(0.0, self._batch_started + BATCH_SECONDS - time.monotonic())
+            timeout = None if not self._batch else max(0.0, self._batch_started + self._batch_seconds - time.monotonic())
             try:
                 item = self._queue.get(timeout=timeout)
             except queue.Empty:  # nothing new for a while: send what is pending
@@ -561,7 +566,7 @@ class RerunSink:
             self._batch_started = time.monotonic()
         self._batch.append(self._gather(result, now))
         self._log_stats(result, now, fps)
-        if len(self._batch) >= BATCH or time.monotonic() - self._batch_started >= BATCH_SECONDS:
+        if len(self._batch) >= self._batch_frames or time.monotonic() - self._batch_started >= self._batch_seconds:
             self._flush()
 
     def _gather(self, result: FrameResult, now: float) -> Pending:

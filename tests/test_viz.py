@@ -379,6 +379,7 @@ def test_serve_hosts_a_web_viewer_on_localhost(tmp_path):
             listening = subprocess.run(["ss", "-ltn"], capture_output=True, text=True).stdout
             assert f"127.0.0.1:{web_port}" in listening and f"0.0.0.0:{web_port}" not in listening
         server = sink._children[0]
+        assert sink._batch_seconds == 0.25  # a watched run is sent in quarter seconds' batches
     finally:
         sink.close()
     assert server.poll() is not None  # the server child is stopped with the sink
@@ -522,8 +523,8 @@ def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
 
     truth = truth_for(range(12))
     files = {}
-    for batch in (1, 5, viz.BATCH):  # 5: batches split mid-run, trails handed out frames before they are sent
-        monkeypatch.setattr(viz, "BATCH", batch)
+    for batch in (1, 5, viz.FILE_BATCH):  # 5: batches split mid-run, trails handed out frames before they are sent
+        monkeypatch.setattr(viz, "FILE_BATCH", batch)
         log_run(tmp_path / f"b{batch}.rrd", truth=truth)
         files[batch] = read_rrd(tmp_path / f"b{batch}.rrd")
 
@@ -536,7 +537,7 @@ def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
 
     one = by_frame(files[1])
     assert len(one["world/tracks"]) > 12 and "world/cameras/cam0/image" in one
-    for batch in (5, viz.BATCH):
+    for batch in (5, viz.FILE_BATCH):
         other = by_frame(files[batch])
         assert set(other) == set(one)
         for path in one:
@@ -549,6 +550,7 @@ def test_a_slow_camera_gets_its_frames_sent_without_a_full_batch(tmp_path, monke
     import stereotrack.viz as viz
 
     rig, rng = make_rig(), np.random.default_rng(0)
+    monkeypatch.setattr(viz, "FILE_BATCH_SECONDS", viz.BATCH_SECONDS)  # as when a viewer watches (a file alone waits longer)
     sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "slow.rrd"), VizSettings(images=False))
     sent, send = [], sink._send
     monkeypatch.setattr(sink, "_send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
