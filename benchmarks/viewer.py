@@ -1,6 +1,6 @@
 """Tracker frames/s with and without the rerun sink (saving to an .rrd, default settings).
 
-Renders a pendulum4 scene at 640x480 once, decodes every frame pair into
+Renders a pendulum4 scene (or --preset) at 640x480 once, decodes every frame pair into
 memory (so video decoding is not counted), then times the tracker's loop over
 those frames alone and with a RerunSink writing a file (opening the sink is
 not timed: it is a one-off ~0.2 s, mostly importing rerun; closing it, which
@@ -13,7 +13,7 @@ part runs in, so other load on the machine does not inflate them): what the
 logging costs per logged frame, on the tracker's thread, in the sink's logging
 thread (by part) and in rerun's own threads (encoding and writing the file).
 
-    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6] [--every N] [--no-images] [--image-scale S]
+    .venv/bin/python benchmarks/viewer.py [--frames 90] [--repeats 6] [--every N] [--no-images] [--image-scale S] [--preset NAME]
 """
 
 from __future__ import annotations
@@ -179,6 +179,7 @@ def rerun_threads_ms(pairs, rig, config, truth, settings: VizSettings, rrd: Path
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=90)
+    ap.add_argument("--preset", default="pendulum4", help="synthetic scene (default pendulum4; static2 tracks faster, clutter has noisy images)")
     ap.add_argument("--repeats", type=int, default=6)
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
     ap.add_argument("--no-images", action="store_true", help="do not log camera images")
@@ -187,7 +188,7 @@ def main() -> None:
     settings = VizSettings(every=args.every, images=not args.no_images, image_scale=args.image_scale)
 
     with tempfile.TemporaryDirectory() as tmp:
-        folder = render_scene(make_preset("pendulum4", n_frames=args.frames, width=640, height=480), Path(tmp) / "rec", progress=False)
+        folder = render_scene(make_preset(args.preset, n_frames=args.frames, width=640, height=480), Path(tmp) / "rec", progress=False)
         rec = open_recording(folder)
         config = load_config(rec.targets_path)
         truth = read_truth(rec.truth_path)
@@ -209,7 +210,7 @@ def main() -> None:
         size_mb = rrd.stat().st_size / 1e6
         fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
         drop = 100 * (1 - fps["rerun"] / fps["plain"])
-        print(f"{len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else f'at {args.image_scale:g} x their size'}")
+        print(f"{args.preset}: {len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else f'at {args.image_scale:g} x their size'}")
         print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
         print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
         print(f"wall time in the sink's write + close, on the tracker's thread: {statistics.median(sink_ms):.2f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")
