@@ -263,7 +263,11 @@ def normalise_connect_url(url: str) -> str:
 
 
 class Trail:
-    """One track's recent positions in growing arrays, trimmed to the trail's length in seconds."""
+    """One track's recent positions in growing arrays, trimmed to the trail's length in seconds.
+
+    Points are only ever appended (growing copies them into new arrays), so
+    the views ``arrays()`` hands out stay valid while they wait for a batch.
+    """
 
     def __init__(self) -> None:
         self.times = np.zeros(64)
