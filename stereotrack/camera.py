@@ -71,6 +71,10 @@ class Camera:
         uv = self.distort_normalised(xn)
         return uv, in_front
 
+    def in_image(self, uv: np.ndarray) -> np.ndarray:
+        """Per pixel (N x 2): inside this camera's image (NaN pixels of points behind it are not)."""
+        return (uv[:, 0] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] >= 0) & (uv[:, 1] < self.height)
+
     def distort_normalised(self, xn: np.ndarray) -> np.ndarray:
         """Normalised undistorted coordinates (N x 2) -> distorted pixels (N x 2)."""
         d = self.dist

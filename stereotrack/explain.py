@@ -55,7 +55,7 @@ def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray
     if len(blobs) == 0 or len(positions) == 0:
         return out
     uv, ok = cam.project(positions)
-    inside = ok & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+    inside = ok & cam.in_image(uv)
     if blobs.labels is not None and inside.any():
         s = blobs.label_scale
         u = (uv[inside, 0] / s).astype(int).clip(0, blobs.labels.shape[1] - 1)
@@ -196,9 +196,12 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predic
     if len(good) >= 2:
         px = [blobs[j].centres[blob_ids[i, j]][None] for j in good]
         point = triangulate_points([cameras[j] for j in good], px)[0]
+        if np.linalg.norm(point - obj.position) > 3 * settings.radius:
+            return obj  # the blobs disagree with the particles: trust the particles
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
         cov = triangulation_covariance(cameras[good[0]], cameras[good[1]], px[0], px[1], settings.centroid_sigma_px)[0]
-    elif len(good) == 1:
+        return replace(obj, position=point, covariance=cov)
+    if len(good) == 1:
         # One clean view: its ray fixes the direction, the particles the distance along it. The
         # covariance says so (tight across the ray, the particles' spread along it), so the track's
         # Kalman filter leans on its own prediction for the depth.
@@ -218,8 +221,4 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predic
         across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
         cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
         return replace(obj, position=point, covariance=cov)
-    else:
-        return obj
-    if np.linalg.norm(point - obj.position) > 3 * settings.radius:
-        return obj  # the blobs disagree with the particles: trust the particles
-    return replace(obj, position=point, covariance=cov)
+    return obj

@@ -36,6 +36,7 @@ from .config import TrackSettings
 from .results import Object3D, TrackEstimate
 
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
+_FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
@@ -223,7 +224,7 @@ class TrackManager:
         """Gravity only for a ball in free flight: a pendulum, a held or a rolling ball is not falling."""
         if self.gravity is None:
             return
-        if np.trace(R) < 3 * 0.02**2:  # depth-ambiguous objects (merged or hidden views) would blur the fit
+        if np.trace(R) < 3 * _FLIGHT_FIT_SIGMA**2:
             tr.history.append((time, np.array(z, float)))
         tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + _EPS_TIME]
         times = np.array([t for t, _ in tr.history])
@@ -250,7 +251,7 @@ class TrackManager:
             return inside
         for cam in self.rig.cameras:
             uv, ok = cam.project(positions)
-            inside &= ok & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+            inside &= ok & cam.in_image(uv)
         return inside
 
     def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool) -> TrackEstimate:

@@ -783,7 +783,7 @@ class RerunSink:
         depth = pc[:, 2]
         front = depth > 1e-9
         uv = cam.distort_normalised(pc[:, :2] / np.where(front, depth, 1.0)[:, None])
-        inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
+        inside = front & cam.in_image(uv)
         return uv, depth, inside
 
     def _log_extras(self, result: FrameResult) -> None:
@@ -936,41 +936,36 @@ def _free_port() -> int:
 # --------------------------------------------------------------------------- command-line flags
 
 
-def _positive_int(text: str) -> int:
+def _parse_number(text: str, cast, expected: str):
     try:
-        value = int(text)
+        return cast(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+
+
+def _positive_int(text: str) -> int:
+    value = _parse_number(text, int, "a whole number")
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
 
 
 def _quality(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number 0..100, got {text!r}") from None
+    value = _parse_number(text, int, "a whole number 0..100")
     if not 0 <= value <= 100:
         raise argparse.ArgumentTypeError(f"must be 0 (raw images) or 1..100, got {value}")
     return value
 
 
 def _scale(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    value = _parse_number(text, float, "a number")
     if not 0 < value <= 1:
         raise argparse.ArgumentTypeError(f"must be more than 0 and at most 1, got {value}")
     return value
 
 
 def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    value = _parse_number(text, float, "seconds")
     if not 0 <= value <= 600:
         raise argparse.ArgumentTypeError(f"must be between 0 and 600 seconds, got {value}")
     return value
