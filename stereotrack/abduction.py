@@ -26,6 +26,7 @@ class Blobs:
     labels: np.ndarray | None = None  # H x W int32 component label image (components only)
     label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
     label_scale: int = 1  # pixel (u, v) has label labels[v // label_scale, u // label_scale]
+    boxes: np.ndarray | None = None  # M x 4 bounding boxes (x0, y0, x1, y1), end exclusive, in label cells (components only)
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -40,6 +41,7 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     label_blob = np.full(n, -1)
     label_blob[1:][keep] = np.arange(keep.sum())
     stats = stats[1:][keep]
+    boxes = np.column_stack([stats[:, 0], stats[:, 1], stats[:, 0] + stats[:, 2], stats[:, 1] + stats[:, 3]])
     h, w = mask.shape
     centres = np.zeros((len(stats), 2))
     areas = np.zeros(len(stats))
@@ -53,7 +55,7 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
         areas[i] = m["m00"]
         radii[i] = 0.5 * max(fw, fh)
         centres[i] = (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]) if m["m00"] else (x0 + 0.5 * (x1 - x0), y0 + 0.5 * (y1 - y0))
-    return Blobs(centres, areas, radii, labels, label_blob, scale)
+    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes)
 
 
 def _local_maxima(hist: np.ndarray, min_count: float, min_gap: int = 5) -> np.ndarray:

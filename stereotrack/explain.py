@@ -20,9 +20,12 @@ is compared with a ball of the known radius at the object's depth:
   mean is biased by the shape of the ball's likelihood plateau; centroids
   are not). With one such view, its ray fixes the direction; the depth comes
   from the particles, or, when the other view's blob is shared with another
-  ball and the particles spread wide along the ray, from the ball's track
-  (the particles' mean is then biased towards the other ball). Otherwise
-  (occlusion in every view) it keeps the particle mean.
+  ball, from where along the ray this ball's disc and the other balls'
+  discs best make up the shared blob (discs.py; the particles' mean is
+  biased towards the other ball). Where the shared blob says little (a ball
+  wholly hidden behind a nearer one) and the particles spread wide along the
+  ray, the ball's track decides. Otherwise (occlusion in every view) it keeps
+  the particle mean.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ import numpy as np
 from .abduction import Blobs
 from .baseline import triangulation_covariance
 from .camera import Camera, triangulate_points
+from .discs import RayFit, depth_on_ray, union_mismatch
 from .results import Object3D
 
 
@@ -47,6 +51,9 @@ class ExplainSettings:
     track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
     centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
     one_view_depth_sigma: float = 0.07  # metres: how little the particles say about depth when only one view is clean
+    disc_fit: bool = True  # place a ball in a shared blob by fitting the union of ball discs to it
+    disc_fit_tolerance: float = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
+    disc_fit_sigma: float = 0.01  # metres: the least depth uncertainty a disc fit claims
 
 
 def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:
@@ -151,13 +158,19 @@ def explain(
         used |= seen
         kept.append(int(i))
     kept.sort()
-    out = []
-    for i in kept:
-        into[members[i]] = len(out)
-        obj = merged[i]
-        if settings.refine:
-            obj = _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted)
-        out.append(obj)
+    for n, i in enumerate(kept):
+        into[members[i]] = n
+    out = [merged[i] for i in kept]
+    if settings.refine:
+        out = [_refined(merged[i], i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted) for i in kept]
+        # A ball that shares a blob is placed against the other balls' discs there, one ball at a time,
+        # each against the latest positions of the others.
+        if settings.disc_fit:
+            positions = {i: o.position for i, o in zip(kept, out)}
+            for n, i in enumerate(kept):
+                if any(blob_ids[k, j] == blob_ids[i, j] >= 0 for k in kept if k != i for j in range(c)):
+                    out[n] = _refined(merged[i], i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted, positions)
+                    positions[i] = out[n].position
     return out, into
 
 
@@ -180,15 +193,16 @@ def _depth_along_ray(o, d, particle_depth: float, along_var: float, predicted, r
     return particle_depth
 
 
-def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted=None) -> Object3D:
+def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted=None, positions=None) -> Object3D:
     """Blob centroids where they belong to this ball alone and have its size; else the particles' word."""
     others = [k for k in kept if k != i]
     good = []
-    shared = False
+    shared: list[tuple[int, list[int]]] = []  # (camera, the other balls in this ball's blob there)
     for j in range(len(cameras)):
         b = blob_ids[i, j]
-        if b >= 0 and any(blob_ids[k, j] == b for k in others):
-            shared = True
+        mates = [k for k in others if b >= 0 and blob_ids[k, j] == b]
+        if mates:
+            shared.append((j, mates))
             continue  # a blob shared with another ball: its centroid is of neither
         if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
             continue  # unseen, clipped or occluded in this camera
@@ -215,10 +229,34 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predic
             return obj  # the blob and the particles disagree: trust the particles
         # Only a blob shared with another ball, with the particles spread wide along the ray, makes
         # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
-        ambiguous = shared and spread > settings.one_view_depth_sigma**2
-        point = o + d * (_depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own)
+        ambiguous = bool(shared) and spread > settings.one_view_depth_sigma**2
+        depth = _depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own
+        # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
+        # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
+        fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
+        if fit is not None:
+            depth, along = fit.depth, max(fit.sigma, settings.disc_fit_sigma) ** 2
+        point = o + d * depth
         z = float(cameras[j].depth(point[None])[0])
         across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
         cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
         return replace(obj, position=point, covariance=cov)
     return obj
+
+
+def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) -> RayFit | None:
+    """Depth along a clean view's ray at which this ball's disc and the other balls' discs make up the
+    blobs they share (see discs.py); None when it cannot be measured."""
+    if not settings.disc_fit or positions is None or any(blobs[j].boxes is None for j, _ in shared):
+        return None
+    half = 3.0 * np.sqrt(along)
+    depths = np.linspace(max(depth - half, 0.05), depth + half, 41)
+    candidates = o + depths[:, None] * d
+    mismatch = np.zeros(len(depths))
+    area = 0.0
+    for j, mates in shared:
+        others = np.array([positions[k] for k in mates])
+        mismatch += union_mismatch(cameras[j], blobs[j], int(blob_ids[i, j]), candidates, others, settings.radius)
+        z = float(cameras[j].depth((o + depth * d)[None])[0])
+        area += np.pi * (cameras[j].K[0, 0] * settings.radius / max(z, 0.05)) ** 2
+    return depth_on_ray(mismatch, depths, depth, np.sqrt(along), settings.disc_fit_tolerance * area)

@@ -55,7 +55,7 @@ class Tracker:
             )
             for t in config.targets
         }
-        self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine) for t in config.targets}
+        self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine, disc_fit=s.disc_fit) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks, rig)

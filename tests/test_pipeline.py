@@ -55,16 +55,19 @@ def test_static_balls_at_06_12_20_m_within_a_centimetre():
 
 
 def test_pendulum4_detection_and_accuracy():
-    tracks, truth, _ = run_scene("pendulum4", 90)
-    ev = evaluate(tracks, truth[truth[:, 0] >= 5], frames=np.arange(5, 90))
-    assert ev.recall >= 0.9 and ev.precision >= 0.9, ev
-    assert ev.mean_error_mm <= 20.0, ev
-    assert ev.id_switches <= 1, ev
+    """The tracker issue's targets, after the 3 frames a new track needs to be confirmed. The first 150
+    frames hold balls merged into one blob in one view, in both views, and hidden behind another."""
+    tracks, truth, _ = run_scene("pendulum4", 150)
+    ev = evaluate(tracks, truth[truth[:, 0] >= 3], frames=np.arange(3, 150))
+    assert ev.recall >= 0.98 and ev.precision >= 0.98, ev
+    assert ev.mean_error_mm <= 15.0, ev
+    assert ev.id_switches == 0 and ev.mota >= 0.97, ev
 
 
 def test_same_coloured_balls_crossing_in_depth_keep_their_tracks():
     """The near ball hides the far one in one view: the far ball's depth along its clean view's ray
-    comes from its track (the particles' mean is pulled towards the near ball), so both stay found."""
+    comes from the two balls' discs in the shared blob, or from its track while it is wholly hidden
+    (the particles' mean is pulled towards the near ball), so both stay found."""
     tracks, truth, _ = run_scene("crossing", 150)
     ev = evaluate(tracks, truth[truth[:, 0] >= 3], frames=np.arange(3, 150))
     assert ev.id_switches == 0 and ev.mota >= 0.96, ev

@@ -1,0 +1,58 @@
+import numpy as np
+
+from stereotrack.abduction import find_blobs
+from stereotrack.explain import ExplainSettings, explain
+from stereotrack.results import Object3D
+
+from scene_helpers import RADIUS, default_rig, disc_masks
+
+
+def obj(position, along=None, sigma=0.005, mass=0.25):
+    """An object as the clusters give it: tight across, ``sigma`` along ``along`` (default: round)."""
+    cov = np.eye(3) * 0.005**2
+    if along is not None:
+        cov = cov + (sigma**2 - 0.005**2) * np.outer(along, along)
+    return Object3D("pink", np.asarray(position, float), cov, mass, 100)
+
+
+def test_stereo_ghosts_are_dropped_and_balls_kept():
+    rig = default_rig()
+    a, b = np.array([-0.1, 1.2, 0.0]), np.array([0.1, 1.6, 0.0])
+    masks, _ = disc_masks(rig, np.array([a, b]))
+    blobs = [find_blobs(m) for m in masks]
+    c0, c1 = rig.cameras
+    ua, ub = c0.project(np.array([a, b]))[0], c1.project(np.array([a, b]))[0]
+    ghosts = [rig.triangulate([ua[0], ub[1]]), rig.triangulate([ua[1], ub[0]])]
+    objects = [obj(g) for g in ghosts] + [obj(a), obj(b)]
+    kept, into = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 2
+    assert list(into[:2]) == [-1, -1]
+    found = np.array([o.position for o in kept])
+    for ball in (a, b):
+        assert np.linalg.norm(found - ball, axis=1).min() < 0.005
+
+
+def test_a_ball_in_a_shared_blob_takes_the_depth_where_the_discs_make_up_the_blob():
+    """Ball B is partly hidden behind A in cam1 (one blob there) and clean in cam0. B's particles are
+    pulled 8 cm along cam0's ray towards A; fitting A's and B's discs to cam1's blob puts B back."""
+    rig = default_rig()
+    c0, c1 = rig.cameras
+    a = np.array([0.0, 1.0, 0.0])
+    ray1 = (a - c1.centre) / np.linalg.norm(a - c1.centre)
+    b = c1.centre + 1.5 * ray1 + np.array([0.0, 0.0, 0.03])
+    masks, _ = disc_masks(rig, np.array([a, b]))
+    blobs = [find_blobs(m) for m in masks]
+    assert [len(x) for x in blobs] == [2, 1]
+    ray0 = (b - c0.centre) / np.linalg.norm(b - c0.centre)
+    biased = b - 0.08 * ray0
+    objects = [obj(a, ray1, 0.03), obj(biased, ray0, 0.1)]
+    for fit, worst in ((True, 0.025), (False, None)):
+        kept, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS, disc_fit=fit))
+        assert len(kept) == 2
+        error = np.linalg.norm(kept[1].position - b)
+        if worst is not None:
+            assert error < worst
+            assert np.sqrt(ray0 @ kept[1].covariance @ ray0) < 0.04  # and says it knows the depth
+        else:
+            assert error > 0.06  # without the fit the particles' bias stays
+        assert np.linalg.norm(kept[0].position - a) < 0.02
