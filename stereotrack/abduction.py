@@ -152,3 +152,43 @@ def particles_on_rays(
     ray = np.repeat(np.arange(m), counts)
     dist = near[ray] + rng.random(n) * (far[ray] - near[ray])
     return origins[ray] + dist[:, None] * directions[ray], ray
+
+
+def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6) -> np.ndarray:
+    """Where blob rays of two cameras (nearly) meet: K x 3 midpoints of their closest approach.
+
+    A ball seen in two views sits where its two rays cross; so does a stereo
+    ghost (ball A's ray in one view with ball B's in the other), which the
+    explain-away stage drops later. Pairs whose rays pass farther apart than
+    one ball radius, meet outside [d_min, d_max], or whose blobs are more than
+    ``slack`` times larger or smaller than a ball there would look (a
+    same-coloured poster on the wall, most ghosts) are not crossings, nor
+    are blobs marked in ``skip`` (per camera, a bool per blob).
+    """
+    rays = [cam.rays(b.centres) if len(b) else None for cam, b in zip(cameras, blobs)]
+    out = []
+    for j in range(len(rays)):
+        for k in range(j + 1, len(rays)):
+            if rays[j] is None or rays[k] is None:
+                continue
+            (o1, d1), (o2, d2) = rays[j], rays[k]
+            # Closest points o1 + s d1 and o2 + t d2 for every pair (unit directions).
+            w = o1[:, None] - o2[None]  # A x B x 3
+            b = d1 @ d2.T
+            dd = (w * d1[:, None]).sum(-1)
+            e = (w * d2[None]).sum(-1)
+            den = np.maximum(1.0 - b * b, 1e-9)
+            s_ = (b * e - dd) / den
+            t_ = (e - b * dd) / den
+            p1 = o1[:, None] + s_[..., None] * d1[:, None]
+            p2 = o2[None] + t_[..., None] * d2[None]
+            mid = 0.5 * (p1 + p2)
+            ok = (np.linalg.norm(p1 - p2, axis=-1) < radius) & (s_ > d_min) & (s_ < d_max) & (t_ > d_min) & (t_ < d_max)
+            for cam, r_blob in ((cameras[j], blobs[j].radii[:, None]), (cameras[k], blobs[k].radii[None, :])):
+                z = cam.depth(mid.reshape(-1, 3)).reshape(mid.shape[:2])
+                expected = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.maximum(z, 1e-6)
+                ok &= np.abs(np.log(np.maximum(r_blob, 0.5) / expected)) < np.log(slack)
+            if skip is not None:
+                ok &= ~skip[j][:, None] & ~skip[k][None, :]
+            out.append(mid[ok])
+    return np.vstack(out) if out else np.zeros((0, 3))

@@ -46,6 +46,7 @@ class TrackerSettings:
     blob_method: str = "components"  # "components" (connected components) or "histogram" (paper's axis maxima)
     min_blob_area: int = 6  # smallest colour blob, pixels
     depth_from_size: bool = True  # narrow the ray's depth range with the ball's apparent size
+    crossing_share: float = 0.25  # share of the abductive particles placed where blob rays of two cameras cross (the rest along the rays)
     cluster_min_likelihood: float = 0.05  # particles below this likelihood are not clustered
     cluster_min_mass: float = 0.01  # clusters with less weight are dropped
     cluster_min_particles: int = 8  # clusters with fewer particles are dropped
@@ -96,6 +97,7 @@ class Config:
 _RANGES: dict[str, tuple[float, float]] = {
     "particles": (1, 10_000_000),
     "alpha": (0.0, 1.0),
+    "crossing_share": (0.0, 1.0),
     "window": (1, 101),
     "motion_sigma": (0.0, 10.0),
     "d_min": (0.0, 1000.0),

@@ -7,7 +7,11 @@ Each frame, for one target colour:
    random walk), weighted by eq. 14 and normalised to sum to 1 - alpha;
 2. abductive part, alpha N particles: placed uniformly along the viewing
    rays of this frame's colour blobs (depth range narrowed by the ball's
-   apparent size), weighted by eq. 14 and normalised to sum to alpha.
+   apparent size), and a share (``crossing_share``) around the points where
+   rays of two cameras cross, weighted by eq. 14 and normalised to sum to
+   alpha. Along a ray, a ball that just appeared gets a few particles per
+   ball-length of ray; at a crossing it gets them all, and is found a frame
+   or two sooner (a juggled ball coming out of the hand).
 Good abductive particles survive into the next sequential part; bad ones die.
 """
 
@@ -18,7 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .abduction import Blobs, depth_range_from_size, particles_on_rays
+from .abduction import Blobs, depth_range_from_size, particles_on_rays, ray_crossings
 from .camera import Camera
 from .clustering import systematic_indices
 from .config import TrackerSettings
@@ -71,7 +75,7 @@ class Population:
         self.rng = rng
         self.state: PopulationState | None = None
 
-    def _abductive(self, blobs: Sequence[Blobs], n: int) -> np.ndarray:
+    def _abductive(self, blobs: Sequence[Blobs], n: int, balls: TrackedBalls | None = None) -> np.ndarray:
         s = self.settings
         origins, dirs, near, far = [], [], [], []
         for cam, b in zip(self.cameras, blobs):
@@ -88,7 +92,26 @@ class Population:
             far.append(hi)
         if not origins:  # nothing of this colour in any image: search blindly
             return frustum_particles(self.cameras[0], n, s.d_min, s.d_max, self.rng)
-        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n, self.rng)
+        crossings = np.zeros((0, 3))
+        if s.crossing_share > 0:
+            # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
+            # into are left out (their ball has its particles; a partly hidden one's shifted centroid
+            # would cross at the wrong depth).
+            held = None
+            if balls is not None and (~balls.other_colour).any():
+                mine = balls.centres[~balls.other_colour]
+                held = []
+                for cam, b in zip(self.cameras, blobs):
+                    uv, ok = cam.project(mine)
+                    d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
+                    held.append((ok[:, None] & (d < np.maximum(b.radii[None], 3.0))).any(axis=0))
+            crossings = ray_crossings(self.cameras, blobs, self.radius, s.d_min, s.d_max, held)
+        n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
+        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, self.rng)
+        if n_cross:
+            at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
+            at = np.r_[at, self.rng.permutation(len(crossings))[: n_cross - len(at)]]
+            pts = np.vstack([pts, crossings[at] + self.rng.normal(0.0, 0.5 * self.radius, (n_cross, 3))])
         return pts
 
     def step(
@@ -114,7 +137,7 @@ class Population:
                     seq_owner = self.state.owners[idx]
         else:
             seq, seq_vel = np.zeros((0, 3)), np.zeros((0, 3))
-        abd = self._abductive(blobs, n_abd) if n_abd else np.zeros((0, 3))
+        abd = self._abductive(blobs, n_abd, balls) if n_abd else np.zeros((0, 3))
         positions = np.vstack([seq, abd])
         # Only a ball of another colour can hide a particle unfairly: one of the same colour fills
         # the window anyway, and eq. 14 already scores that view as a match.

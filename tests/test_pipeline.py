@@ -171,7 +171,8 @@ def test_a_ball_partly_hidden_by_a_ball_of_another_colour_keeps_its_track():
 
 
 def test_the_papers_histogram_blob_finder_tracks_end_to_end():
-    """The axis-histogram maxima work as a drop-in (components stay the default: they measure better)."""
-    tracks, truth, _ = run_scene("static2", 15, tracker_overrides={"blob_method": "histogram"})
+    """The paper's abduction (axis-histogram maxima, particles along the rays only) works as a drop-in
+    (components and ray crossings stay the default: they measure better)."""
+    tracks, truth, _ = run_scene("static2", 15, tracker_overrides={"blob_method": "histogram", "crossing_share": 0.0})
     errors = per_object_errors(tracks, truth, start=8)
     assert all((e < 0.1).all() for e in errors.values()), {k: np.round(v, 3) for k, v in errors.items()}  # within the 0.1 m gate

@@ -59,18 +59,37 @@ def test_alpha_one_puts_every_particle_on_a_blob_ray():
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)
     blobs = [find_blobs(m) for m in masks]
-    pop = Population(rig.cameras, TrackerSettings(particles=500, alpha=1.0), RADIUS, np.random.default_rng(0))
-    state = pop.step(integrals, blobs, dt=1 / 30)
-    assert state.abductive.all() and state.weights.sum() == pytest.approx(1.0)
-    # Every particle projects onto a ball's disc in the camera whose ray placed it.
-    on_disc = np.zeros(len(state.positions), bool)
-    for cam, m in zip(rig.cameras, masks):
-        uv, ok = cam.project(state.positions)
-        u = np.clip(np.rint(uv[:, 0]).astype(int), 0, cam.width - 1)
-        v = np.clip(np.rint(uv[:, 1]).astype(int), 0, cam.height - 1)
-        on_disc |= ok & (m[v, u] == 1)
-    assert on_disc.all()
+    for share in (0.0, 0.25):  # the paper's proposal (rays only), then ours (a share at ray crossings)
+        pop = Population(rig.cameras, TrackerSettings(particles=500, alpha=1.0, crossing_share=share), RADIUS, np.random.default_rng(0))
+        state = pop.step(integrals, blobs, dt=1 / 30)
+        assert state.abductive.all() and state.weights.sum() == pytest.approx(1.0)
+        # Every particle projects onto a ball's disc in the camera whose ray placed it, or sits
+        # around a crossing of two rays (here: a ball).
+        on_disc = np.zeros(len(state.positions), bool)
+        for cam, m in zip(rig.cameras, masks):
+            uv, ok = cam.project(state.positions)
+            u = np.clip(np.rint(uv[:, 0]).astype(int), 0, cam.width - 1)
+            v = np.clip(np.rint(uv[:, 1]).astype(int), 0, cam.height - 1)
+            on_disc |= ok & (m[v, u] == 1)
+        near_ball = (np.linalg.norm(state.positions[:, None] - BALLS[None], axis=2) < 3 * RADIUS).any(axis=1)
+        assert on_disc.all() if share == 0 else (on_disc | near_ball).all()
+        assert (~on_disc).sum() <= share * 500 * 0.5
 
+
+
+def test_crossing_particles_find_a_new_ball_in_its_first_frame():
+    """Along the rays a ball that just appeared gets a few particles per ball-length; at the crossing of
+    its two rays it gets a share of them all (a juggled ball coming out of the hand)."""
+    rig = default_rig()
+    masks, integrals = disc_masks(rig, BALLS)
+    blobs = [find_blobs(m) for m in masks]
+    weight = {}
+    for share in (0.0, 0.25):
+        pop = Population(rig.cameras, TrackerSettings(alpha=0.2, crossing_share=share), RADIUS, np.random.default_rng(0))
+        state = pop.step(integrals, blobs, dt=1 / 30)
+        weight[share] = min(share_near(state, b, RADIUS)[0] for b in BALLS)
+    assert weight[0.25] > 3 * weight[0.0]
+    assert weight[0.25] > 0.02  # above the clusters' minimum mass (0.01): an object this very frame
 
 def test_exclusion_kills_particles_of_one_track_inside_another_ball():
     from stereotrack.population import TrackedBalls
