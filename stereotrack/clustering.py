@@ -290,18 +290,15 @@ def cluster_particles(
     logp = _log_gauss(X, means, covs) + np.log(np.maximum(pis, 1e-300))
     labels = logp.argmax(axis=1)
     K = len(means)
-    out_means = np.zeros((K, 3))
-    out_covs = np.zeros((K, 3, 3))
-    masses = np.bincount(labels, weights=w, minlength=K)
+    # Weighted first and second moments of every cluster at once: one-hot weights, two matrix products.
+    onehot = np.zeros((len(X), K))
+    onehot[np.arange(len(X)), labels] = w
+    masses = onehot.sum(axis=0)
     counts = np.bincount(labels, minlength=K)
-    for k in range(K):
-        m = labels == k
-        if not m.any():
-            continue
-        ww = w[m] / w[m].sum()
-        out_means[k] = ww @ X[m]
-        d = X[m] - out_means[k]
-        out_covs[k] = (ww[:, None] * d).T @ d
+    safe = np.maximum(masses, 1e-300)
+    out_means = (onehot.T @ X) / safe[:, None]
+    second = (onehot.T @ (X[:, :, None] * X[:, None, :]).reshape(-1, 9)).reshape(K, 3, 3) / safe[:, None, None]
+    out_covs = second - out_means[:, :, None] * out_means[:, None, :]
     good = (masses >= settings.min_mass) & (counts >= settings.min_particles)
     remap = np.full(K, -1)
     remap[good] = np.arange(good.sum())

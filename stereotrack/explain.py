@@ -134,7 +134,7 @@ def explain(
     # Clusters that see the same blobs in every camera are one ball: EM cut its cloud (long along
     # the viewing direction, longer still where two balls merge into one blob) into pieces.
     groups: dict[tuple[int, ...], list[int]] = {}
-    ids, _ = _signatures(np.array([o.position for o in objects]), cameras, blobs, settings.radius)
+    ids, first_ratio = _signatures(np.array([o.position for o in objects]), cameras, blobs, settings.radius)
     for i, sig in enumerate(map(tuple, ids.tolist())):
         if any(k >= 0 for k in sig):
             groups.setdefault(sig, []).append(i)
@@ -146,7 +146,10 @@ def explain(
     if not merged:
         return [], into
     blob_ids = np.array(blob_ids)
-    _, log_ratio = _signatures(np.array([o.position for o in merged]), cameras, blobs, settings.radius)
+    if all(len(idx) == 1 for idx in members):  # nothing merged: the sizes are those measured above
+        log_ratio = first_ratio[[idx[0] for idx in members]]
+    else:
+        _, log_ratio = _signatures(np.array([o.position for o in merged]), cameras, blobs, settings.radius)
     score = _rank(merged, log_ratio, settings, predicted)
     c = len(cameras)
     used: set[tuple[int, int]] = set()
