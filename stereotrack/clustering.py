@@ -57,13 +57,38 @@ def _empty(n: int) -> Clusters:
     return Clusters(np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int), np.full(n, -1))
 
 
-def _log_gauss(X: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
-    """log N(x | mean_k, cov_k) for every point and component: N x K."""
-    inv = np.linalg.inv(covs)  # K x 3 x 3
-    _, logdet = np.linalg.slogdet(covs)
-    d = X[None] - means[:, None]  # K x N x 3
-    maha = (np.matmul(d, inv) * d).sum(axis=2).T  # N x K
-    return -0.5 * (maha + logdet + 3 * _LOG2PI)
+def _quadratic_features(X: np.ndarray) -> np.ndarray:
+    """Per point, the monomials of a quadratic form in 3-D: x^2, y^2, z^2, xy, xz, yz, x, y, z, 1 (N x 10)."""
+    x, y, z = X[:, 0], X[:, 1], X[:, 2]
+    return np.column_stack([x * x, y * y, z * z, x * y, x * z, y * z, x, y, z, np.ones(len(X))])
+
+
+def _inverse_and_logdet(covs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse and log-determinant of K symmetric positive-definite 3 x 3 matrices, in closed form
+    (numpy's batched linalg spends more on its set-up than on 3 x 3 arithmetic)."""
+    a, b, c = covs[:, 0, 0], covs[:, 0, 1], covs[:, 0, 2]
+    d, e, f = covs[:, 1, 1], covs[:, 1, 2], covs[:, 2, 2]
+    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
+    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * A + b * B + c * C
+    inv = np.stack([A, B, C, B, D, E, C, E, F], axis=1).reshape(-1, 3, 3) / det[:, None, None]
+    return inv, np.log(det)
+
+
+def _log_gauss(features: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
+    """log N(x | mean_k, cov_k) for every point (given as ``_quadratic_features``) and component: N x K.
+
+    The Mahalanobis distance x'Px - 2 m'Px + m'Pm is linear in the point's
+    quadratic monomials, so all points and components take one matrix product.
+    """
+    P, logdet = _inverse_and_logdet(covs)
+    Pm = np.einsum("kij,kj->ki", P, means)
+    coef = np.empty((10, len(means)))
+    coef[0], coef[1], coef[2] = P[:, 0, 0], P[:, 1, 1], P[:, 2, 2]
+    coef[3], coef[4], coef[5] = 2 * P[:, 0, 1], 2 * P[:, 0, 2], 2 * P[:, 1, 2]
+    coef[6:9] = -2 * Pm.T
+    coef[9] = (Pm * means).sum(axis=1)
+    return -0.5 * (features @ coef + logdet + 3 * _LOG2PI)
 
 
 def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarray, iterations: int, reg: float):
@@ -72,18 +97,23 @@ def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarra
     pis = np.full(k, 1.0 / k)
     eye = np.eye(3) * reg
     resp = None
+    centre = X.mean(axis=0)  # centred coordinates keep the second moments well conditioned
+    Xc = X - centre
+    means = means - centre
+    feats = _quadratic_features(Xc)
+    outer = (Xc[:, :, None] * Xc[:, None, :]).reshape(-1, 9)
     for _ in range(iterations):
-        logp = _log_gauss(X, means, covs) + np.log(np.maximum(pis, 1e-300))
+        logp = _log_gauss(feats, means, covs) + np.log(np.maximum(pis, 1e-300))
         logp -= logp.max(axis=1, keepdims=True)
         resp = np.exp(logp)
         resp /= resp.sum(axis=1, keepdims=True)
         rw = resp * w[:, None]  # N x K
         nk = rw.sum(axis=0) + 1e-300
-        means = (rw.T @ X) / nk[:, None]
-        d = X[None] - means[:, None]  # K x N x 3
-        covs = np.matmul((rw.T[:, :, None] * d).transpose(0, 2, 1), d) / nk[:, None, None] + eye
+        means = (rw.T @ Xc) / nk[:, None]
+        second = (rw.T @ outer).reshape(k, 3, 3) / nk[:, None, None]
+        covs = second - means[:, :, None] * means[:, None, :] + eye
         pis = nk / nk.sum()
-    return means, covs, pis, resp
+    return means + centre, covs, pis, resp
 
 
 def _sklearn_em(X, w, means, covs, iterations, reg, rng):
@@ -287,7 +317,8 @@ def cluster_particles(
     # Final labels (E-step against the final mixture) and weighted statistics over all kept particles.
     means, covs, pis, _ = weighted_em(X, w, means, covs, 1, reg)
     X, w = X_all, w_all
-    logp = _log_gauss(X, means, covs) + np.log(np.maximum(pis, 1e-300))
+    centre = X.mean(axis=0)
+    logp = _log_gauss(_quadratic_features(X - centre), means - centre, covs) + np.log(np.maximum(pis, 1e-300))
     labels = logp.argmax(axis=1)
     K = len(means)
     # Weighted first and second moments of every cluster at once: one-hot weights, two matrix products.
