@@ -225,6 +225,8 @@ def _merge_pair(cameras: Sequence[Camera], means: np.ndarray, radius: float) -> 
     if k < 2:
         return None
     d3 = np.linalg.norm(means[:, None] - means[None], axis=2) + np.eye(k) * 1e9
+    if not (d3 < 2 * radius).any():
+        return None  # no pair close enough to be one ball: no need to look at the cameras
     sep = np.zeros((k, k))  # largest separation over cameras, in apparent ball radii
     for cam in cameras:
         uv, ok = cam.project(means)
