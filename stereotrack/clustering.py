@@ -91,6 +91,22 @@ def _log_gauss(features: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.
     return -0.5 * (features @ coef + logdet + 3 * _LOG2PI)
 
 
+def _outer_products(X: np.ndarray) -> np.ndarray:
+    """Per point, x x' flattened (N x 9)."""
+    return (X[:, :, None] * X[:, None, :]).reshape(-1, 9)
+
+
+def _moments(rw: np.ndarray, X: np.ndarray, outer: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weighted mass, mean and covariance of every component at once from point-by-component weights
+    ``rw`` (N x K): two matrix products. ``X`` should be centred (it keeps the second moments well
+    conditioned); ``outer`` is ``_outer_products(X)``."""
+    mass = rw.sum(axis=0)
+    safe = np.maximum(mass, 1e-300)
+    means = (rw.T @ X) / safe[:, None]
+    second = (rw.T @ outer).reshape(-1, 3, 3) / safe[:, None, None]
+    return mass, means, second - means[:, :, None] * means[:, None, :]
+
+
 def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarray, iterations: int, reg: float):
     """EM for a Gaussian mixture where point i counts with weight w_i. Returns (means, covs, pis, resp)."""
     k = len(means)
@@ -101,18 +117,15 @@ def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarra
     Xc = X - centre
     means = means - centre
     feats = _quadratic_features(Xc)
-    outer = (Xc[:, :, None] * Xc[:, None, :]).reshape(-1, 9)
+    outer = _outer_products(Xc)
     for _ in range(iterations):
         logp = _log_gauss(feats, means, covs) + np.log(np.maximum(pis, 1e-300))
         logp -= logp.max(axis=1, keepdims=True)
         resp = np.exp(logp)
         resp /= resp.sum(axis=1, keepdims=True)
-        rw = resp * w[:, None]  # N x K
-        nk = rw.sum(axis=0) + 1e-300
-        means = (rw.T @ Xc) / nk[:, None]
-        second = (rw.T @ outer).reshape(k, 3, 3) / nk[:, None, None]
-        covs = second - means[:, :, None] * means[:, None, :] + eye
-        pis = nk / nk.sum()
+        nk, means, covs = _moments(resp * w[:, None], Xc, outer)
+        covs = covs + eye
+        pis = nk / max(nk.sum(), 1e-300)
     return means + centre, covs, pis, resp
 
 
@@ -318,20 +331,16 @@ def cluster_particles(
             break
     # Final labels (E-step against the final mixture) and weighted statistics over all kept particles.
     means, covs, pis, _ = weighted_em(X, w, means, covs, 1, reg)
-    X, w = X_all, w_all
-    centre = X.mean(axis=0)
-    logp = _log_gauss(_quadratic_features(X - centre), means - centre, covs) + np.log(np.maximum(pis, 1e-300))
+    centre = X_all.mean(axis=0)
+    X, w = X_all - centre, w_all
+    logp = _log_gauss(_quadratic_features(X), means - centre, covs) + np.log(np.maximum(pis, 1e-300))
     labels = logp.argmax(axis=1)
     K = len(means)
-    # Weighted first and second moments of every cluster at once: one-hot weights, two matrix products.
     onehot = np.zeros((len(X), K))
     onehot[np.arange(len(X)), labels] = w
-    masses = onehot.sum(axis=0)
+    masses, out_means, out_covs = _moments(onehot, X, _outer_products(X))
+    out_means += centre
     counts = np.bincount(labels, minlength=K)
-    safe = np.maximum(masses, 1e-300)
-    out_means = (onehot.T @ X) / safe[:, None]
-    second = (onehot.T @ (X[:, :, None] * X[:, None, :]).reshape(-1, 9)).reshape(K, 3, 3) / safe[:, None, None]
-    out_covs = second - out_means[:, :, None] * out_means[:, None, :]
     good = (masses >= settings.min_mass) & (counts >= settings.min_particles)
     remap = np.full(K, -1)
     remap[good] = np.arange(good.sum())

@@ -171,7 +171,7 @@ def explain(
         if settings.disc_fit:
             positions = {i: o.position for i, o in zip(kept, out)}
             for n, i in enumerate(kept):
-                if any(blob_ids[k, j] == blob_ids[i, j] >= 0 for k in kept if k != i for j in range(c)):
+                if _mates(i, kept, blob_ids):
                     out[n] = _refined(merged[i], i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted, positions)
                     positions[i] = out[n].position
     return out, into
@@ -196,17 +196,25 @@ def _depth_along_ray(o, d, particle_depth: float, along_var: float, predicted, r
     return particle_depth
 
 
+def _mates(i: int, kept: list[int], blob_ids: np.ndarray) -> list[tuple[int, list[int]]]:
+    """(camera, the other kept balls in ball i's blob there) for every camera where i shares its blob."""
+    out = []
+    for j, b in enumerate(blob_ids[i]):
+        mates = [k for k in kept if k != i and b >= 0 and blob_ids[k, j] == b]
+        if mates:
+            out.append((j, mates))
+    return out
+
+
 def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted=None, positions=None) -> Object3D:
     """Blob centroids where they belong to this ball alone and have its size; else the particles' word."""
-    others = [k for k in kept if k != i]
+    shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
+    in_shared = {j for j, _ in shared}
     good = []
-    shared: list[tuple[int, list[int]]] = []  # (camera, the other balls in this ball's blob there)
     for j in range(len(cameras)):
         b = blob_ids[i, j]
-        mates = [k for k in others if b >= 0 and blob_ids[k, j] == b]
-        if mates:
-            shared.append((j, mates))
-            continue  # a blob shared with another ball: its centroid is of neither
+        if j in in_shared:
+            continue
         if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
             continue  # unseen, clipped or occluded in this camera
         good.append(j)
@@ -250,7 +258,7 @@ def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predic
 def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) -> RayFit | None:
     """Depth along a clean view's ray at which this ball's disc and the other balls' discs make up the
     blobs they share (see discs.py); None when it cannot be measured."""
-    if not settings.disc_fit or positions is None or any(blobs[j].boxes is None for j, _ in shared):
+    if positions is None or any(blobs[j].boxes is None for j, _ in shared):
         return None
     half = 3.0 * np.sqrt(along)
     depths = np.linspace(max(depth - half, 0.05), depth + half, 41)

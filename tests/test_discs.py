@@ -29,11 +29,19 @@ def cam0_ray(rig, blobs, point):
     return o[0], d[0], float((point - o[0]) @ d[0])
 
 
-def test_the_shared_blob_is_best_made_up_at_the_true_depth():
-    rig, blobs, a, b = scene(lateral=0.03)
+def mismatch_along_cam0_ray(lateral: float, below: float, above: float, n: int):
+    """Ball B placed at depths along cam0's ray through it, against A's disc in cam1's shared blob:
+    (depths, mismatch, B's true depth, B's disc area in cam1)."""
+    rig, blobs, a, b = scene(lateral)
     o, d, true_depth = cam0_ray(rig, blobs, b)
-    depths = np.linspace(true_depth - 0.3, true_depth + 0.3, 61)
+    depths = np.linspace(true_depth - below, true_depth + above, n)
     mismatch = union_mismatch(rig.cameras[1], blobs[1], 0, o + depths[:, None] * d, a[None], RADIUS)
+    area = np.pi * (rig.cameras[1].K[0, 0] * RADIUS / 1.5) ** 2
+    return depths, mismatch, true_depth, area
+
+
+def test_the_shared_blob_is_best_made_up_at_the_true_depth():
+    depths, mismatch, true_depth, _ = mismatch_along_cam0_ray(0.03, 0.3, 0.3, 61)
     assert abs(depths[np.argmin(mismatch)] - true_depth) <= 0.015  # the label grid is 2 px: 1.4 cm at 1.5 m
     # 20 cm off the true depth the union leaves much of the blob unexplained or spills over it.
     far = np.abs(depths - true_depth) > 0.2
@@ -41,11 +49,7 @@ def test_the_shared_blob_is_best_made_up_at_the_true_depth():
 
 
 def test_a_partly_hidden_ball_is_placed_by_its_visible_part_whatever_the_prior():
-    rig, blobs, a, b = scene(lateral=0.03)
-    o, d, true_depth = cam0_ray(rig, blobs, b)
-    depths = np.linspace(true_depth - 0.35, true_depth + 0.25, 41)
-    mismatch = union_mismatch(rig.cameras[1], blobs[1], 0, o + depths[:, None] * d, a[None], RADIUS)
-    area = np.pi * (rig.cameras[1].K[0, 0] * RADIUS / 1.5) ** 2
+    depths, mismatch, true_depth, area = mismatch_along_cam0_ray(0.03, 0.35, 0.25, 41)
     for prior in (true_depth - 0.1, true_depth + 0.1):  # the particles' mean, pulled towards A or away
         fit = depth_on_ray(mismatch, depths, prior, 0.12, 0.05 * area)
         assert abs(fit.depth - true_depth) < 0.025  # a quarter of the prior's error, or less
@@ -53,11 +57,7 @@ def test_a_partly_hidden_ball_is_placed_by_its_visible_part_whatever_the_prior()
 
 
 def test_a_wholly_hidden_ball_keeps_the_prior_and_says_the_blob_knew_little():
-    rig, blobs, a, b = scene(lateral=0.0)
-    o, d, true_depth = cam0_ray(rig, blobs, b)
-    depths = np.linspace(true_depth - 0.3, true_depth + 0.3, 41)
-    mismatch = union_mismatch(rig.cameras[1], blobs[1], 0, o + depths[:, None] * d, a[None], RADIUS)
-    area = np.pi * (rig.cameras[1].K[0, 0] * RADIUS / 1.5) ** 2
+    depths, mismatch, true_depth, area = mismatch_along_cam0_ray(0.0, 0.3, 0.3, 41)
     prior = true_depth + 0.04
     fit = depth_on_ray(mismatch, depths, prior, 0.12, 0.05 * area)
     assert abs(fit.depth - prior) < 0.03  # anywhere behind A fits: the prior decides
