@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
+from .kernels import component_boxes, mask_moments
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,25 +37,15 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
     small = np.ascontiguousarray(mask[::scale, ::scale]) if scale > 1 else mask
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
-    keep = stats[1:, cv2.CC_STAT_AREA] * scale * scale >= min_area
+    # Labels only: OpenCV's per-component statistics cost several times the labelling itself.
+    n, labels = cv2.connectedComponents(small, connectivity=8, ltype=cv2.CV_32S)
+    area, boxes = component_boxes(labels, n)
+    keep = area * scale * scale >= min_area
     label_blob = np.full(n, -1)
     label_blob[1:][keep] = np.arange(keep.sum())
-    stats = stats[1:][keep]
-    boxes = np.column_stack([stats[:, 0], stats[:, 1], stats[:, 0] + stats[:, 2], stats[:, 1] + stats[:, 3]])
-    h, w = mask.shape
-    centres = np.zeros((len(stats), 2))
-    areas = np.zeros(len(stats))
-    radii = np.zeros(len(stats))
-    for i, (x, y, bw, bh, _) in enumerate(stats):  # a loop over blobs (a handful), not pixels
-        x0, y0 = max(0, x * scale - scale), max(0, y * scale - scale)
-        x1, y1 = min(w, (x + bw) * scale + scale), min(h, (y + bh) * scale + scale)
-        roi = mask[y0:y1, x0:x1]
-        m = cv2.moments(roi, binaryImage=True)
-        _, _, fw, fh = cv2.boundingRect(roi)
-        areas[i] = m["m00"]
-        radii[i] = 0.5 * max(fw, fh)
-        centres[i] = (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]) if m["m00"] else (x0 + 0.5 * (x1 - x0), y0 + 0.5 * (y1 - y0))
+    boxes = boxes[keep]
+    areas, centres, size = mask_moments(mask, boxes, scale)  # each blob measured at full resolution
+    radii = 0.5 * size.max(axis=1) if len(size) else np.zeros(0)
     return Blobs(centres, areas, radii, labels, label_blob, scale, boxes)
 
 
@@ -154,7 +145,7 @@ def particles_on_rays(
     return origins[ray] + dist[:, None] * directions[ray], ray
 
 
-def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6) -> np.ndarray:
+def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6, rays=None) -> np.ndarray:
     """Where blob rays of two cameras (nearly) meet: K x 3 midpoints of their closest approach.
 
     A ball seen in two views sits where its two rays cross; so does a stereo
@@ -163,9 +154,12 @@ def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, ski
     one ball radius, meet outside [d_min, d_max], or whose blobs are more than
     ``slack`` times larger or smaller than a ball there would look (a
     same-coloured poster on the wall, most ghosts) are not crossings, nor
-    are blobs marked in ``skip`` (per camera, a bool per blob).
+    are blobs marked in ``skip`` (per camera, a bool per blob). ``rays``: the
+    blobs' viewing rays per camera, (origins, directions), if already known.
     """
-    rays = [cam.rays(b.centres) if len(b) else None for cam, b in zip(cameras, blobs)]
+    if rays is None:
+        rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
+    rays = [r if len(b) else None for r, b in zip(rays, blobs)]
     out = []
     for j in range(len(rays)):
         for k in range(j + 1, len(rays)):

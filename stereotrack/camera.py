@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -22,6 +23,24 @@ from .yamlfile import load_yaml
 _DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
 # Iterative undistortion to machine precision (OpenCV's default stops after 5 steps).
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
+
+
+def kernels():
+    """The compiled kernels, imported on first use: numba's import and start-up (about a second) is paid
+    only by commands that project or triangulate, not by ``--help``."""
+    from . import kernels as module
+
+    return module
+
+
+def _tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
+    """OpenCV's tilted-sensor projection (``computeTiltProjectionMatrix``) for the 13th and 14th coefficients."""
+    cx, sx, cy, sy = math.cos(tau_x), math.sin(tau_x), math.cos(tau_y), math.sin(tau_y)
+    rot_x = np.array([[1.0, 0.0, 0.0], [0.0, cx, sx], [0.0, -sx, cx]])
+    rot_y = np.array([[cy, 0.0, -sy], [0.0, 1.0, 0.0], [sy, 0.0, cy]])
+    rot = rot_y @ rot_x
+    proj_z = np.array([[rot[2, 2], 0.0, -rot[0, 2]], [0.0, rot[2, 2], -rot[1, 2]], [0.0, 0.0, 1.0]])
+    return proj_z @ rot
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,13 +82,23 @@ class Camera:
         Returns (pixels N x 2, in_front N bool). Points behind the camera get
         NaN pixels and in_front False.
         """
-        pc = self.to_camera(points)
-        z = pc[:, 2]
-        in_front = z > 1e-9
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xn = pc[:, :2] / np.where(in_front, z, np.nan)[:, None]
-        uv = self.distort_normalised(xn)
+        uv, in_front, _ = self.view(points)
         return uv, in_front
+
+    def view(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``project`` plus every point's depth (z in this camera's frame): (pixels, in_front, depth)."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        return kernels().project_points(points, *self._kernel_arrays)
+
+    @cached_property
+    def _kernel_arrays(self) -> tuple[np.ndarray, ...]:
+        """R, t, K, the distortion as 12 coefficients and the tilted-sensor matrix, as the projection kernel takes them."""
+        d = np.asarray(self.dist, dtype=float).ravel()
+        k = np.zeros(12)
+        k[: min(d.size, 12)] = d[:12]
+        tilt = _tilt_matrix(d[12], d[13]) if d.size == 14 else np.eye(3)
+        f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+        return f64(self.R), f64(self.t).ravel(), f64(self.K), k, tilt
 
     def in_image(self, uv: np.ndarray) -> np.ndarray:
         """Per pixel (N x 2): inside this camera's image (NaN pixels of points behind it are not)."""
@@ -77,25 +106,10 @@ class Camera:
 
     def distort_normalised(self, xn: np.ndarray) -> np.ndarray:
         """Normalised undistorted coordinates (N x 2) -> distorted pixels (N x 2)."""
-        d = self.dist
-        if d.size == 14:  # tilted sensor model: rare, leave it to OpenCV
-            pts = np.hstack([xn, np.ones((len(xn), 1))])
-            uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), self.K, d)
-            return uv.reshape(-1, 2)
-        k = np.zeros(12)
-        k[: d.size] = d
-        k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = k
-        x, y = xn[:, 0], xn[:, 1]
-        r2 = x * x + y * y
-        r4 = r2 * r2
-        r6 = r4 * r2
-        radial = (1 + k1 * r2 + k2 * r4 + k3 * r6) / (1 + k4 * r2 + k5 * r4 + k6 * r6)
-        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4
-        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4
-        K = self.K
-        u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
-        v = K[1, 1] * yd + K[1, 2]
-        return np.stack([u, v], axis=1)
+        xn = np.asarray(xn, dtype=float).reshape(-1, 2)
+        _, _, K, k, tilt = self._kernel_arrays
+        points = np.column_stack([xn, np.ones(len(xn))])  # on the plane z = 1 of the camera frame
+        return kernels().project_points(points, np.eye(3), np.zeros(3), K, k, tilt)[0]
 
     def undistort_pixels(self, pixels: np.ndarray) -> np.ndarray:
         """Distorted pixels (N x 2) -> normalised undistorted coordinates (N x 2)."""
@@ -178,23 +192,24 @@ class Rig:
         return float(np.linalg.norm(self.cameras[i].centre - self.cameras[j].centre))
 
 
+@lru_cache(maxsize=16)
+def stacked_kernel_arrays(cameras: tuple[Camera, ...]) -> tuple[np.ndarray, ...]:
+    """Every camera's projection arrays (see ``Camera.view``) stacked along a first axis, for kernels
+    that project into all cameras at once."""
+    return tuple(np.ascontiguousarray(np.stack(a)) for a in zip(*(cam._kernel_arrays for cam in cameras)))
+
+
 def triangulate_points(cameras: Sequence[Camera], pixels: Sequence[np.ndarray]) -> np.ndarray:
     """Triangulate M points seen by every given camera (pixels: one M x 2 array per camera).
 
     Linear least squares (DLT) on undistorted normalised coordinates, solved
     for all points at once; exact observations give the exact point.
     """
-    m = len(pixels[0])
-    rows = []
-    for cam, px in zip(cameras, pixels):
-        xn = cam.undistort_pixels(px)  # M x 2
-        P = np.hstack([cam.R, cam.t[:, None]])  # normalised projection
-        rows.append(xn[:, 0:1] * P[2] - P[0])  # M x 4
-        rows.append(xn[:, 1:2] * P[2] - P[1])
-    A = np.stack(rows, axis=1)  # M x 2C x 4
-    _, _, vt = np.linalg.svd(A)
-    Xh = vt[:, -1, :]
-    return Xh[:, :3] / Xh[:, 3:4] if m else np.zeros((0, 3))
+    if len(pixels[0]) == 0:
+        return np.zeros((0, 3))
+    xn = np.stack([cam.undistort_pixels(px) for cam, px in zip(cameras, pixels)])  # C x M x 2
+    P = np.stack([np.hstack([cam.R, cam.t[:, None]]) for cam in cameras])  # normalised projections
+    return kernels().triangulate_dlt(xn, np.ascontiguousarray(P, dtype=float))
 
 
 def look_at(eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, -1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

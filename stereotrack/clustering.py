@@ -26,10 +26,8 @@ from typing import Sequence
 
 import numpy as np
 
-from .camera import Camera
-
-_LOG2PI = np.log(2 * np.pi)
-
+from .camera import Camera, stacked_kernel_arrays
+from .kernels import greedy_seeds, hard_labels, merge_one_ball_clusters, weighted_em, weighted_moments
 
 @dataclass(frozen=True)
 class ClusterSettings:
@@ -57,78 +55,6 @@ def _empty(n: int) -> Clusters:
     return Clusters(np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int), np.full(n, -1))
 
 
-def _quadratic_features(X: np.ndarray) -> np.ndarray:
-    """Per point, the monomials of a quadratic form in 3-D: x^2, y^2, z^2, xy, xz, yz, x, y, z, 1 (N x 10)."""
-    x, y, z = X[:, 0], X[:, 1], X[:, 2]
-    return np.column_stack([x * x, y * y, z * z, x * y, x * z, y * z, x, y, z, np.ones(len(X))])
-
-
-def _inverse_and_logdet(covs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse and log-determinant of K symmetric positive-definite 3 x 3 matrices, in closed form
-    (numpy's batched linalg spends more on its set-up than on 3 x 3 arithmetic)."""
-    a, b, c = covs[:, 0, 0], covs[:, 0, 1], covs[:, 0, 2]
-    d, e, f = covs[:, 1, 1], covs[:, 1, 2], covs[:, 2, 2]
-    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
-    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
-    det = a * A + b * B + c * C
-    inv = np.stack([A, B, C, B, D, E, C, E, F], axis=1).reshape(-1, 3, 3) / det[:, None, None]
-    return inv, np.log(det)
-
-
-def _log_gauss(features: np.ndarray, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
-    """log N(x | mean_k, cov_k) for every point (given as ``_quadratic_features``) and component: N x K.
-
-    The Mahalanobis distance x'Px - 2 m'Px + m'Pm is linear in the point's
-    quadratic monomials, so all points and components take one matrix product.
-    """
-    P, logdet = _inverse_and_logdet(covs)
-    Pm = np.einsum("kij,kj->ki", P, means)
-    coef = np.empty((10, len(means)))
-    coef[0], coef[1], coef[2] = P[:, 0, 0], P[:, 1, 1], P[:, 2, 2]
-    coef[3], coef[4], coef[5] = 2 * P[:, 0, 1], 2 * P[:, 0, 2], 2 * P[:, 1, 2]
-    coef[6:9] = -2 * Pm.T
-    coef[9] = (Pm * means).sum(axis=1)
-    return -0.5 * (features @ coef + logdet + 3 * _LOG2PI)
-
-
-def _outer_products(X: np.ndarray) -> np.ndarray:
-    """Per point, x x' flattened (N x 9)."""
-    return (X[:, :, None] * X[:, None, :]).reshape(-1, 9)
-
-
-def _moments(rw: np.ndarray, X: np.ndarray, outer: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weighted mass, mean and covariance of every component at once from point-by-component weights
-    ``rw`` (N x K): two matrix products. ``X`` should be centred (it keeps the second moments well
-    conditioned); ``outer`` is ``_outer_products(X)``."""
-    mass = rw.sum(axis=0)
-    safe = np.maximum(mass, 1e-300)
-    means = (rw.T @ X) / safe[:, None]
-    second = (rw.T @ outer).reshape(-1, 3, 3) / safe[:, None, None]
-    return mass, means, second - means[:, :, None] * means[:, None, :]
-
-
-def weighted_em(X: np.ndarray, w: np.ndarray, means: np.ndarray, covs: np.ndarray, iterations: int, reg: float):
-    """EM for a Gaussian mixture where point i counts with weight w_i. Returns (means, covs, pis, resp)."""
-    k = len(means)
-    pis = np.full(k, 1.0 / k)
-    eye = np.eye(3) * reg
-    resp = None
-    centre = X.mean(axis=0)  # centred coordinates keep the second moments well conditioned
-    Xc = X - centre
-    means = means - centre
-    feats = _quadratic_features(Xc)
-    outer = _outer_products(Xc)
-    for _ in range(iterations):
-        logp = _log_gauss(feats, means, covs) + np.log(np.maximum(pis, 1e-300))
-        logp -= logp.max(axis=1, keepdims=True)
-        resp = np.exp(logp)
-        resp /= resp.sum(axis=1, keepdims=True)
-        nk, means, covs = _moments(resp * w[:, None], Xc, outer)
-        covs = covs + eye
-        pis = nk / max(nk.sum(), 1e-300)
-    return means + centre, covs, pis, resp
-
-
 def _sklearn_em(X, w, means, covs, iterations, reg, rng):
     from sklearn.mixture import GaussianMixture
 
@@ -151,46 +77,12 @@ def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) ->
     return np.searchsorted(cdf, u, side="right").clip(0, len(weights) - 1)
 
 
-def _seeds(X, w, prev_means, radius, min_mass, max_objects, views):
-    """Warm-start seeds (previous objects with mass nearby) + greedy new modes.
-
-    A new seed claims the particles that are the same ball as it: within
-    ``2 R`` in 3D, or inside its apparent disc in every camera (a ball's cloud
-    is long along the viewing direction, short across it).
-    """
-
-    def same_ball(centre_index: int) -> np.ndarray:
-        near = ((X - X[centre_index]) ** 2).sum(1) < (2 * radius) ** 2
-        disc = np.ones(len(X), bool)
-        for uv, ok, f_over_z in views:
-            disc &= ok & (((uv - uv[centre_index]) ** 2).sum(1) < (radius * f_over_z[centre_index]) ** 2)
-        return near | disc
-
-    def centre(sel: np.ndarray) -> np.ndarray:
-        return w[sel] @ X[sel] / w[sel].sum()
-
-    seeds = []
-    free = np.ones(len(X), bool)
-    for m in prev_means:
-        near = ((X - m) ** 2).sum(1) < (2 * radius) ** 2
-        if w[near].sum() >= min_mass:
-            seeds.append(centre(near))
-            free &= ~near
-    while len(seeds) < max_objects and free.any():
-        i = np.flatnonzero(free)[np.argmax(w[free])]
-        claim = same_ball(i) & free
-        free &= ~claim
-        if w[claim].sum() >= min_mass:
-            seeds.append(centre(claim))
-    return np.array(seeds).reshape(-1, 3)
-
-
 def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Every particle's projection, visibility and focal length over depth, per camera (computed once)."""
     out = []
     for cam in cameras:
-        uv, ok = cam.project(X)
-        f_over_z = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) / np.maximum(cam.depth(X), 1e-6)
+        uv, ok, z = cam.view(X)
+        f_over_z = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) / np.maximum(z, 1e-6)
         out.append((uv, ok, f_over_z))
     return out
 
@@ -233,27 +125,6 @@ def _split_halves(views, X: np.ndarray, w: np.ndarray, member: np.ndarray, camer
     return (ww[hi] @ Xs[hi] / ww[hi].sum(), ww[~hi] @ Xs[~hi] / ww[~hi].sum())
 
 
-def _merge_pair(cameras: Sequence[Camera], means: np.ndarray, radius: float) -> tuple[int, int] | None:
-    k = len(means)
-    if k < 2:
-        return None
-    d3 = np.linalg.norm(means[:, None] - means[None], axis=2) + np.eye(k) * 1e9
-    if not (d3 < 2 * radius).any():
-        return None  # no pair close enough to be one ball: no need to look at the cameras
-    sep = np.zeros((k, k))  # largest separation over cameras, in apparent ball radii
-    for cam in cameras:
-        uv, ok = cam.project(means)
-        z = np.maximum(cam.depth(means), 1e-6)
-        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / z
-        d_px = np.linalg.norm(uv[:, None] - uv[None], axis=2) / np.minimum(r_px[:, None], r_px[None])
-        sep = np.maximum(sep, np.where(ok[:, None] & ok[None], d_px, np.inf))
-    one_ball = (d3 < radius) | ((d3 < 2 * radius) & (sep < 0.5))
-    if not one_ball.any():
-        return None
-    i, j = np.unravel_index(np.argmin(np.where(one_ball, d3, np.inf)), d3.shape)
-    return int(min(i, j)), int(max(i, j))
-
-
 def cluster_particles(
     positions: np.ndarray,
     weights: np.ndarray,
@@ -281,7 +152,8 @@ def cluster_particles(
     reg = (R / 4) ** 2
     prev = np.zeros((0, 3)) if prev_means is None else prev_means
     views = _views(cameras, X)
-    means = _seeds(X, w, prev, R, settings.min_mass, settings.max_objects, views)
+    uv, ok, f_over_z = (np.stack(a) for a in zip(*views))
+    means = greedy_seeds(X, w, np.ascontiguousarray(prev, dtype=float), R, settings.min_mass, settings.max_objects, uv, ok, f_over_z)
     if len(means) == 0:
         return _empty(n)
     covs = np.repeat((np.eye(3) * R * R)[None], len(means), axis=0)
@@ -300,15 +172,10 @@ def cluster_particles(
         if len(means) == 0:
             return _empty(n)
         labels = np.where(alive[labels], np.cumsum(alive)[labels] - 1, -1)
-        # Merge every pair that is one ball: closer than R, or closer than 2R (touching balls are
-        # 2R apart) while no camera sees them more than half a ball apart (a depth-elongated cloud).
-        while (pair := _merge_pair(cameras, means, R)) is not None:
-            i, j = pair
-            means[i] = (mass[i] * means[i] + mass[j] * means[j]) / (mass[i] + mass[j])
-            mass[i] += mass[j]
-            labels = np.where(labels == j, i, np.where(labels > j, labels - 1, labels))
-            means, covs, mass = np.delete(means, j, 0), np.delete(covs, j, 0), np.delete(mass, j)
-            changed = True
+        # Merge every pair that is one ball (touching balls are 2R apart and stay two).
+        kept, means, mass, labels = merge_one_ball_clusters(means, mass, labels, R, *stacked_kernel_arrays(tuple(cameras)))
+        covs = covs[kept]
+        changed = changed or not kept.all()
         # Split every cluster wider than one ball in some camera (early rounds only: no ping-pong).
         if not changed and _round < 2:
             new_means, new_covs = [], []
@@ -331,15 +198,11 @@ def cluster_particles(
             break
     # Final labels (E-step against the final mixture) and weighted statistics over all kept particles.
     means, covs, pis, _ = weighted_em(X, w, means, covs, 1, reg)
-    centre = X_all.mean(axis=0)
-    X, w = X_all - centre, w_all
-    logp = _log_gauss(_quadratic_features(X), means - centre, covs) + np.log(np.maximum(pis, 1e-300))
-    labels = logp.argmax(axis=1)
+    labels = hard_labels(X_all, means, covs, pis)
     K = len(means)
-    onehot = np.zeros((len(X), K))
-    onehot[np.arange(len(X)), labels] = w
-    masses, out_means, out_covs = _moments(onehot, X, _outer_products(X))
-    out_means += centre
+    onehot = np.zeros((len(X_all), K))
+    onehot[np.arange(len(X_all)), labels] = w_all
+    masses, out_means, out_covs = weighted_moments(X_all, onehot)
     counts = np.bincount(labels, minlength=K)
     good = (masses >= settings.min_mass) & (counts >= settings.min_particles)
     remap = np.full(K, -1)

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import sys
+import threading
 import time
+from contextlib import contextmanager
+from typing import Iterator
 
 
 def warn(message: str) -> None:
@@ -13,6 +16,19 @@ def warn(message: str) -> None:
 
 def info(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
+
+
+@contextmanager
+def notice_if_slow(message: str, after: float = 1.0) -> Iterator[None]:
+    """Say ``message`` on stderr if the block is still running after ``after`` seconds (a one-off wait
+    the user should not mistake for a hang)."""
+    timer = threading.Timer(after, info, args=(message,))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
 
 
 class Progress:

@@ -111,6 +111,10 @@ class _SharedScene:
             self.n_frames = max(1, min(self.n_frames, round(loop * fps)))
             for k in range(self.n_frames):
                 self._cache[k] = tuple(self.renderer.render(k)[0])
+        else:
+            # The first frame also loads the compiled projection (kernels.py): a real camera is warm
+            # when opened, so take that one-off second here, before any camera's clock starts.
+            self._cache[0] = tuple(self.renderer.render(0)[0])
 
     @classmethod
     def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> "_SharedScene":

@@ -17,6 +17,7 @@ import numpy as np
 
 from .abduction import Blobs
 from .camera import Camera
+from .kernels import disc_union_mismatch
 
 
 def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray, others: np.ndarray, radius: float) -> np.ndarray:
@@ -30,43 +31,16 @@ def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray,
     label image and boxes.
     """
     points = np.vstack([candidates, others])
-    uv, front = cam.project(points)
-    r = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, cam.depth(points), 1.0)
+    uv, front, z = cam.view(points)
+    r = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, z, 1.0)
     n = len(candidates)
     out = np.full(n, np.inf)
     t = np.flatnonzero(front[:n])
-    if not len(t):
-        return out
-    k = n + np.flatnonzero(front[n:])
-    s = blobs.label_scale
-    off = 0.5 * (s - 1)  # label cell x has its centre at pixel x * s + off
-    h, w = blobs.labels.shape
-    seen = np.r_[t, k]
-    bx0, by0, bx1, by1 = blobs.boxes[blob]
-    x0 = max(0, min(bx0, int(np.floor(((uv[seen, 0] - r[seen]).min() - off) / s)))) 
-    y0 = max(0, min(by0, int(np.floor(((uv[seen, 1] - r[seen]).min() - off) / s))))
-    x1 = min(w, max(bx1, int(np.ceil(((uv[seen, 0] + r[seen]).max() - off) / s)) + 1))
-    y1 = min(h, max(by1, int(np.ceil(((uv[seen, 1] + r[seen]).max() - off) / s)) + 1))
-    blob_mask = blobs.label_blob[blobs.labels[y0:y1, x0:x1]] == blob
-    gx = np.arange(x0, x1) * s + off
-    gy = np.arange(y0, y1) * s + off
-    covered = np.zeros(blob_mask.shape, bool)  # by the other balls' discs
-    for i in k:  # a handful of balls
-        covered |= (gx[None, :] - uv[i, 0]) ** 2 + (gy[:, None] - uv[i, 1]) ** 2 <= r[i] ** 2
-    # xor(disc | covered, blob) = xor(covered, blob) + sum over the disc of g, g = 0 where covered,
-    # -1 on the blob, +1 off it. Sums of g over a disc come row by row from running sums.
-    g = np.where(covered, 0, np.where(blob_mask, -1, 1))
-    run = np.zeros((g.shape[0], g.shape[1] + 1), np.int64)
-    np.cumsum(g, axis=1, out=run[:, 1:])
-    dy = gy[None, :] - uv[t, 1, None]  # T x rows
-    half = np.sqrt(np.maximum(r[t, None] ** 2 - dy**2, 0.0))
-    inside = r[t, None] ** 2 - dy**2 >= 0
-    lo = np.clip(np.ceil((uv[t, 0, None] - half - off) / s).astype(int) - x0, 0, g.shape[1])
-    hi = np.clip(np.floor((uv[t, 0, None] + half - off) / s).astype(int) + 1 - x0, 0, g.shape[1])
-    hi = np.maximum(hi, lo)
-    rows = np.arange(g.shape[0])[None, :]
-    disc_sum = np.where(inside, run[rows, hi] - run[rows, lo], 0).sum(axis=1)
-    out[t] = (np.count_nonzero(covered != blob_mask) + disc_sum) * float(s * s)
+    if len(t):
+        k = n + np.flatnonzero(front[n:])
+        out[t] = disc_union_mismatch(
+            blobs.labels, blobs.label_blob, blob, blobs.boxes[blob], blobs.label_scale, uv[t], r[t], uv[k], r[k]
+        )
     return out
 
 

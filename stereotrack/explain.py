@@ -39,6 +39,7 @@ from .abduction import Blobs
 from .baseline import triangulation_covariance
 from .camera import Camera, triangulate_points
 from .discs import RayFit, depth_on_ray, union_mismatch
+from .kernels import blob_at
 from .results import Object3D
 
 
@@ -56,25 +57,19 @@ class ExplainSettings:
     disc_fit_sigma: float = 0.01  # metres: the least depth uncertainty a disc fit claims
 
 
-def _blob_ids(cam: Camera, blobs: Blobs, positions: np.ndarray, r_px: np.ndarray) -> np.ndarray:
-    """For each position: the blob its projection falls in (or the nearest within one apparent radius), else -1."""
-    out = np.full(len(positions), -1)
-    if len(blobs) == 0 or len(positions) == 0:
-        return out
-    uv, ok = cam.project(positions)
-    inside = ok & cam.in_image(uv)
-    if blobs.labels is not None and inside.any():
-        s = blobs.label_scale
-        u = (uv[inside, 0] / s).astype(int).clip(0, blobs.labels.shape[1] - 1)
-        v = (uv[inside, 1] / s).astype(int).clip(0, blobs.labels.shape[0] - 1)
-        out[inside] = blobs.label_blob[blobs.labels[v, u]]
-    miss = ok & (out < 0)
-    if miss.any():
-        d = np.linalg.norm(uv[miss, None, :] - blobs.centres[None], axis=2)
-        nearest = d.argmin(axis=1)
-        close = d[np.arange(len(nearest)), nearest] <= np.maximum(r_px[miss], 3.0) + blobs.radii[nearest]
-        out[np.flatnonzero(miss)[close]] = nearest[close]
-    return out
+_NO_LABELS = np.zeros((1, 1), np.int32)
+
+
+def _blob_ids(cam: Camera, blobs: Blobs, uv: np.ndarray, ok: np.ndarray, r_px: np.ndarray) -> np.ndarray:
+    """For each projected position (pixels ``uv``, in front ``ok``): the blob it falls in (or the nearest
+    within one apparent radius), else -1."""
+    if len(blobs) == 0 or len(uv) == 0:
+        return np.full(len(uv), -1)
+    if blobs.labels is None:  # the histogram blob finder: nearest blob only
+        labels, label_blob, use_labels = _NO_LABELS, np.full(1, -1), False
+    else:
+        labels, label_blob, use_labels = blobs.labels, blobs.label_blob, True
+    return blob_at(uv, ok, r_px, cam.width, cam.height, labels, label_blob, blobs.label_scale, use_labels, blobs.centres, blobs.radii)
 
 
 def _merge(objs: Sequence[Object3D]) -> Object3D:
@@ -83,10 +78,11 @@ def _merge(objs: Sequence[Object3D]) -> Object3D:
         return objs[0]
     m = np.array([o.mass for o in objs])
     mu = np.array([o.position for o in objs])
-    mean = (m[:, None] * mu).sum(0) / m.sum()
+    total = m.sum()
+    mean = m @ mu / total
     d = mu - mean
-    cov = sum(mi * (o.covariance + np.outer(di, di)) for mi, o, di in zip(m, objs, d)) / m.sum()
-    return Object3D(objs[0].target, mean, cov, float(m.sum()), int(sum(o.n_particles for o in objs)))
+    cov = (np.tensordot(m, np.array([o.covariance for o in objs]), 1) + (m[:, None] * d).T @ d) / total
+    return Object3D(objs[0].target, mean, cov, float(total), int(sum(o.n_particles for o in objs)))
 
 
 def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarray, np.ndarray]:
@@ -95,10 +91,9 @@ def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarr
     ids = np.full((k, c), -1)
     log_ratio = np.full((k, c), np.nan)
     for j, (cam, b) in enumerate(zip(cameras, blobs)):
-        z = cam.depth(positions)
-        front = z > 0
+        uv, front, z = cam.view(positions)
         r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, z, 1.0)
-        ids[:, j] = np.where(front, _blob_ids(cam, b, positions, r_px), -1)
+        ids[:, j] = np.where(front, _blob_ids(cam, b, uv, front, r_px), -1)
         seen = ids[:, j] >= 0
         if seen.any():
             log_ratio[seen, j] = np.log(np.maximum(b.radii[ids[seen, j]], 0.5) / r_px[seen])
@@ -122,9 +117,12 @@ def explain(
     blobs: Sequence[Blobs],
     settings: ExplainSettings,
     predicted: np.ndarray | None = None,
+    rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[list[Object3D], np.ndarray]:
     """Keep the objects that explain blobs.
 
+    ``predicted``: where tracks of this colour expect balls; ``rays``: the
+    blobs' viewing rays per camera (origins, directions), if already known.
     Returns (kept objects, index of the kept object each input object went
     into, or -1 if it was dropped).
     """
@@ -165,15 +163,9 @@ def explain(
         into[members[i]] = n
     out = [merged[i] for i in kept]
     if settings.refine:
-        out = [_refined(merged[i], i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted) for i in kept]
-        # A ball that shares a blob is placed against the other balls' discs there, one ball at a time,
-        # each against the latest positions of the others.
-        if settings.disc_fit:
-            positions = {i: o.position for i, o in zip(kept, out)}
-            for n, i in enumerate(kept):
-                if _mates(i, kept, blob_ids):
-                    out[n] = _refined(merged[i], i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted, positions)
-                    positions[i] = out[n].position
+        if rays is None:
+            rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
+        out = _refine_all(merged, kept, blob_ids, log_ratio, cameras, blobs, rays, settings, predicted)
     return out, into
 
 
@@ -206,53 +198,81 @@ def _mates(i: int, kept: list[int], blob_ids: np.ndarray) -> list[tuple[int, lis
     return out
 
 
-def _refined(obj, i, kept, blob_ids, log_ratio, cameras, blobs, settings, predicted=None, positions=None) -> Object3D:
-    """Blob centroids where they belong to this ball alone and have its size; else the particles' word."""
+def _clean_views(i: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, settings: ExplainSettings):
+    """(cameras where kept ball i has a blob of its own and of its size, [(camera, mates)] where it shares its blob)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
-    good = []
-    for j in range(len(cameras)):
-        b = blob_ids[i, j]
-        if j in in_shared:
-            continue
-        if b < 0 or not abs(log_ratio[i, j]) < settings.refine_tolerance:
-            continue  # unseen, clipped or occluded in this camera
-        good.append(j)
-    if len(good) >= 2:
-        px = [blobs[j].centres[blob_ids[i, j]][None] for j in good]
-        point = triangulate_points([cameras[j] for j in good], px)[0]
-        if np.linalg.norm(point - obj.position) > 3 * settings.radius:
-            return obj  # the blobs disagree with the particles: trust the particles
+    good = [
+        j for j in range(blob_ids.shape[1])
+        # unseen, clipped or occluded in a camera: not clean there
+        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance
+    ]
+    return good, shared
+
+
+def _refine_all(merged, kept, blob_ids, log_ratio, cameras, blobs, rays, settings, predicted) -> list[Object3D]:
+    """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
+
+    Balls with two or more clean views are triangulated together (one call per set of cameras); a
+    ball with one clean view takes its ray and a depth (``_one_view``). A ball that shares a blob is
+    then placed against the other balls' discs there, one ball at a time, each against the latest
+    positions of the others.
+    """
+    views = {i: _clean_views(i, kept, blob_ids, log_ratio, settings) for i in kept}
+    out = {i: merged[i] for i in kept}
+    by_cameras: dict[tuple[int, ...], list[int]] = {}
+    for i in kept:
+        if len(views[i][0]) >= 2:
+            by_cameras.setdefault(tuple(views[i][0]), []).append(i)
+    for good, idx in by_cameras.items():
+        px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
+        points = triangulate_points([cameras[j] for j in good], px)
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
-        cov = triangulation_covariance(cameras[good[0]], cameras[good[1]], px[0], px[1], settings.centroid_sigma_px)[0]
-        return replace(obj, position=point, covariance=cov)
-    if len(good) == 1:
-        # One clean view: its ray fixes the direction, the particles the distance along it. The
-        # covariance says so (tight across the ray, the particles' spread along it), so the track's
-        # Kalman filter leans on its own prediction for the depth.
-        j = good[0]
-        o, d = cameras[j].rays(blobs[j].centres[blob_ids[i, j]][None])
-        o, d = o[0], d[0]
-        spread = float(d @ obj.covariance @ d)
-        along = max(spread, settings.one_view_depth_sigma**2)
-        own = float((obj.position - o) @ d)
-        if np.linalg.norm(obj.position - (o + d * own)) > 3 * settings.radius:
-            return obj  # the blob and the particles disagree: trust the particles
-        # Only a blob shared with another ball, with the particles spread wide along the ray, makes
-        # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
-        ambiguous = bool(shared) and spread > settings.one_view_depth_sigma**2
-        depth = _depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own
-        # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
-        # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
-        fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
-        if fit is not None:
-            depth, along = fit.depth, max(fit.sigma, settings.disc_fit_sigma) ** 2
-        point = o + d * depth
-        z = float(cameras[j].depth(point[None])[0])
-        across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
-        cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
-        return replace(obj, position=point, covariance=cov)
-    return obj
+        covs = triangulation_covariance(cameras[good[0]], cameras[good[1]], px[0], px[1], settings.centroid_sigma_px)
+        for i, point, cov in zip(idx, points, covs):
+            if np.linalg.norm(point - merged[i].position) <= 3 * settings.radius:  # else the blobs disagree with the particles
+                out[i] = replace(merged[i], position=point, covariance=cov)
+    one_view = [i for i in kept if len(views[i][0]) == 1]
+    for i in one_view:
+        out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted)
+    if settings.disc_fit:
+        positions = {i: o.position for i, o in out.items()}
+        for i in one_view:
+            if views[i][1]:
+                out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted, positions)
+                positions[i] = out[i].position
+    return [out[i] for i in kept]
+
+
+def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None) -> Object3D:
+    """One clean view: its ray fixes the direction, the particles (or the shared blobs) the distance along it.
+
+    The covariance says so (tight across the ray, the depth's uncertainty
+    along it), so the track's Kalman filter leans on its own prediction for
+    the depth. ``positions`` (the other balls' latest positions) enables the
+    disc fit through shared blobs.
+    """
+    j = good[0]
+    o, d = rays[j][0][blob_ids[i, j]], rays[j][1][blob_ids[i, j]]
+    spread = float(d @ obj.covariance @ d)
+    along = max(spread, settings.one_view_depth_sigma**2)
+    own = float((obj.position - o) @ d)
+    if np.linalg.norm(obj.position - (o + d * own)) > 3 * settings.radius:
+        return obj  # the blob and the particles disagree: trust the particles
+    # Only a blob shared with another ball, with the particles spread wide along the ray, makes
+    # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
+    ambiguous = bool(shared) and spread > settings.one_view_depth_sigma**2
+    depth = _depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own
+    # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
+    # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
+    fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
+    if fit is not None:
+        depth, along = fit.depth, max(fit.sigma, settings.disc_fit_sigma) ** 2
+    point = o + d * depth
+    z = float(cameras[j].depth(point[None])[0])
+    across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
+    cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
+    return replace(obj, position=point, covariance=cov)
 
 
 def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) -> RayFit | None:

@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from . import kernels
 from .camera import Camera
 
 
@@ -23,19 +24,7 @@ def window_counts(integral: np.ndarray, uv: np.ndarray, valid: np.ndarray, windo
     Windows that reach past the image edge count only their inside part;
     positions outside the image or not ``valid`` count 0.
     """
-    h, w = integral.shape[0] - 1, integral.shape[1] - 1
-    half = window // 2
-    with np.errstate(invalid="ignore"):
-        c = np.rint(np.nan_to_num(uv, nan=-1e9, posinf=-1e9, neginf=-1e9))
-    cx = c[:, 0].clip(-1e6, 1e6).astype(np.int64)
-    cy = c[:, 1].clip(-1e6, 1e6).astype(np.int64)
-    inside = valid & (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
-    x0 = np.clip(cx - half, 0, w)
-    x1 = np.clip(cx + half + 1, 0, w)
-    y0 = np.clip(cy - half, 0, h)
-    y1 = np.clip(cy + half + 1, 0, h)
-    count = integral[y1, x1] - integral[y0, x1] - integral[y1, x0] + integral[y0, x0]
-    return np.where(inside, count, 0)
+    return kernels.window_counts(integral, np.ascontiguousarray(uv, dtype=float), np.ascontiguousarray(valid, dtype=bool), window)
 
 
 def camera_factor(camera: Camera, integral: np.ndarray, positions: np.ndarray, window: int) -> np.ndarray:
@@ -50,19 +39,8 @@ def hidden_by_balls(camera: Camera, positions: np.ndarray, centres: np.ndarray, 
 
     A particle inside a ball is not hidden by that ball.
     """
-    hidden = np.zeros(len(positions), bool)
-    if len(centres) == 0 or len(positions) == 0:
-        return hidden
-    c = camera.centre
-    to_p = positions - c
-    dist_p = np.linalg.norm(to_p, axis=1)
-    d = to_p / np.maximum(dist_p, 1e-12)[:, None]
-    for centre, r in zip(centres, radii):  # a loop over tracked balls, vectorised over particles
-        v = centre - c
-        along = d @ v
-        perp2 = v @ v - along**2
-        hidden |= (perp2 < r * r) & (along > 0) & (along < dist_p - r)
-    return hidden
+    f64 = lambda a: np.ascontiguousarray(a, dtype=float).reshape(-1, 3)  # noqa: E731
+    return kernels.hidden_by_balls(camera.centre, f64(positions), f64(centres), np.ascontiguousarray(radii, dtype=float))
 
 
 def likelihood(

@@ -21,6 +21,7 @@ from .config import Config
 from .console import Progress
 from .errors import StereotrackError
 from .explain import ExplainSettings, explain
+from .kernels import nearest_within, warm_up
 from .population import Population, TrackedBalls
 from .recording import FramePair
 from .results import FrameResult, Object3D, ParticleSet, Rays, Sink
@@ -39,6 +40,7 @@ class Tracker:
         self.rig = rig
         self.config = config
         self.keep_rays = keep_rays
+        warm_up()  # compile (first run on a machine) or load the kernels now, not in the first frame
         s = config.tracker
         root = np.random.default_rng(s.seed)
         self.populations = {
@@ -78,6 +80,9 @@ class Tracker:
         blobs: dict[str, list[Blobs]] = {
             t.name: [find_blobs(cm.masks[t.name], s.blob_method, s.min_blob_area) for cm in cmasks] for t in self.config.targets
         }
+        # Every blob's viewing ray, once: abduction places particles on them, explain-away fixes
+        # one-view balls on them, the viewer draws them.
+        rays = {name: [cam.rays(b.centres) for cam, b in zip(cams, per_cam)] for name, per_cam in blobs.items()}
         t2 = time.perf_counter()
         timings["blobs"] = 1e3 * (t2 - t1)
         live = [tr for tr in self.identities.predicted(now) if tr.state != "tentative"]
@@ -89,7 +94,7 @@ class Tracker:
         states = {}
         for t in self.config.targets:
             balls = TrackedBalls(centres, radii, ids, np.array([tr.target != t.name for tr in predicted], dtype=bool))
-            states[t.name] = self.populations[t.name].step([cm.integrals[t.name] for cm in cmasks], blobs[t.name], dt, balls)
+            states[t.name] = self.populations[t.name].step([cm.integrals[t.name] for cm in cmasks], blobs[t.name], dt, balls, rays[t.name])
         t3 = time.perf_counter()
         timings["particles"] = 1e3 * (t3 - t2)
         objects: list[Object3D] = []
@@ -100,7 +105,7 @@ class Tracker:
             self.prev_means[t.name] = cl.means
             candidates = [Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))]
             pred = np.array([tr.position for tr in live if tr.target == t.name]).reshape(-1, 3)
-            kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred)
+            kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred, rays[t.name])
             remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
             objects.extend(kept_objects)
             particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))
@@ -111,10 +116,10 @@ class Tracker:
         t5 = time.perf_counter()
         timings["tracks"] = 1e3 * (t5 - t4)
         timings["step"] = 1e3 * (t5 - t0)
-        rays = self._rays(blobs) if self.keep_rays else ()
+        shown_rays = self._rays(blobs, rays) if self.keep_rays else ()
         masks = {(t.name, cm.camera): cm.masks[t.name] for cm in cmasks for t in self.config.targets}
         return FrameResult(
-            frame=pair, particles=tuple(particle_sets), objects=tuple(objects), tracks=tracks, rays=rays, masks=masks, timings_ms=timings
+            frame=pair, particles=tuple(particle_sets), objects=tuple(objects), tracks=tracks, rays=shown_rays, masks=masks, timings_ms=timings
         )
 
     def _follow_tracks(self, tracks) -> None:
@@ -129,19 +134,17 @@ class Tracker:
             owners = np.full(len(vel), -1)
             if mine:
                 centres = np.array([tr.position for tr in mine])
-                d2 = ((pop.state.positions[:, None, :] - centres[None]) ** 2).sum(-1)
-                nearest = d2.argmin(axis=1)
-                close = d2[np.arange(len(nearest)), nearest] < (3 * t.radius) ** 2 + 0.0025
+                nearest = nearest_within(pop.state.positions, centres, np.sqrt((3 * t.radius) ** 2 + 0.0025))
+                close = nearest >= 0
                 owners[close] = np.array([tr.track_id for tr in mine])[nearest[close]]
                 if self.config.tracker.particle_velocity:
                     vel[close] = np.array([tr.velocity for tr in mine])[nearest[close]]
             pop.follow_tracks(vel, owners)
 
-    def _rays(self, blobs: dict[str, list[Blobs]]) -> tuple[Rays, ...]:
+    def _rays(self, blobs: dict[str, list[Blobs]], rays) -> tuple[Rays, ...]:
         out = []
         for name, per_cam in blobs.items():
-            for cam, b in zip(self.rig.cameras, per_cam):
-                o, d = cam.rays(b.centres)
+            for cam, b, (o, d) in zip(self.rig.cameras, per_cam, rays[name]):
                 out.append(Rays(name, cam.name, o, d, b.centres))
         return tuple(out)
 

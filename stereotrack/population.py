@@ -26,6 +26,7 @@ from .abduction import Blobs, depth_range_from_size, particles_on_rays, ray_cros
 from .camera import Camera
 from .clustering import systematic_indices
 from .config import TrackerSettings
+from .kernels import intruders
 from .likelihood import likelihood
 
 
@@ -75,13 +76,12 @@ class Population:
         self.rng = rng
         self.state: PopulationState | None = None
 
-    def _abductive(self, blobs: Sequence[Blobs], n: int, balls: TrackedBalls | None = None) -> np.ndarray:
+    def _abductive(self, blobs: Sequence[Blobs], rays, n: int, balls: TrackedBalls | None = None) -> np.ndarray:
         s = self.settings
         origins, dirs, near, far = [], [], [], []
-        for cam, b in zip(self.cameras, blobs):
+        for cam, b, (o, d) in zip(self.cameras, blobs, rays):
             if len(b) == 0:
                 continue
-            o, d = cam.rays(b.centres)
             if s.depth_from_size:
                 lo, hi = depth_range_from_size(cam, b.radii, self.radius, s.d_min, s.d_max)
             else:
@@ -105,7 +105,7 @@ class Population:
                     uv, ok = cam.project(mine)
                     d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
                     held.append((ok[:, None] & (d < np.maximum(b.radii[None], 3.0))).any(axis=0))
-            crossings = ray_crossings(self.cameras, blobs, self.radius, s.d_min, s.d_max, held)
+            crossings = ray_crossings(self.cameras, blobs, self.radius, s.d_min, s.d_max, held, rays=rays)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, self.rng)
         if n_cross:
@@ -120,9 +120,13 @@ class Population:
         blobs: Sequence[Blobs],
         dt: float,
         balls: TrackedBalls | None = None,
+        rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
     ) -> PopulationState:
-        """Advance one frame. ``balls``: tracked balls for exclusion and occlusion (seed 000's blocking)."""
+        """Advance one frame. ``balls``: tracked balls for exclusion and occlusion (seed 000's blocking);
+        ``rays``: the blobs' viewing rays per camera (origins, directions), computed here if not given."""
         s = self.settings
+        if rays is None:
+            rays = [cam.rays(b.centres) for cam, b in zip(self.cameras, blobs)]
         n_seq, n_abd = split_counts(s.particles, s.alpha)
         rng = self.rng
         if n_seq:
@@ -137,7 +141,7 @@ class Population:
                     seq_owner = self.state.owners[idx]
         else:
             seq, seq_vel = np.zeros((0, 3)), np.zeros((0, 3))
-        abd = self._abductive(blobs, n_abd, balls) if n_abd else np.zeros((0, 3))
+        abd = self._abductive(blobs, rays, n_abd, balls) if n_abd else np.zeros((0, 3))
         positions = np.vstack([seq, abd])
         # Only a ball of another colour can hide a particle unfairly: one of the same colour fills
         # the window anyway, and eq. 14 already scores that view as a match.
@@ -147,9 +151,7 @@ class Population:
         lik = likelihood(self.cameras, integrals, positions, s.window, occluders)
         if balls is not None and s.exclusion and len(balls.centres) and n_seq and self.state is not None and self.state.owners is not None:
             # Two balls cannot share space: a particle following one track dies inside another's ball.
-            d2 = ((seq[:, None, :] - balls.centres[None]) ** 2).sum(-1)
-            intruder = (d2 < balls.radii[None] ** 2) & (seq_owner[:, None] >= 0) & (seq_owner[:, None] != balls.track_ids[None])
-            lik[:n_seq] = np.where(intruder.any(axis=1), 0.0, lik[:n_seq])
+            lik[:n_seq] = np.where(intruders(seq, seq_owner, balls.centres, balls.radii.astype(float), balls.track_ids), 0.0, lik[:n_seq])
         weights = np.empty(len(positions))
         alpha_eff = 0.0 if n_seq == 0 else s.alpha
         parts = [(slice(0, n_seq), 1.0 - alpha_eff if n_abd else 1.0), (slice(n_seq, None), alpha_eff if n_seq else 1.0)]

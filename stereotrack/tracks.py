@@ -33,6 +33,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .camera import Rig
 from .config import TrackSettings
+from .kernels import kalman_correct, kalman_predict
 from .results import Object3D, TrackEstimate
 
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
@@ -59,6 +60,7 @@ class _Track:
     n_particles: int = 0
     history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
     in_flight: bool = False  # gravity applies to its prediction
+    prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -67,11 +69,14 @@ def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> t
     Q is the continuous white-acceleration model (q = accel_noise m^2/s^3),
     b the known gravity acceleration (zero when ``gravity`` is None).
     """
-    eye = np.eye(3)
+    i = np.arange(3)
     F = np.eye(6)
-    F[:3, 3:] = dt * eye
+    F[i, i + 3] = dt
     q = accel_noise
-    Q = np.block([[q * dt**3 / 3 * eye, q * dt**2 / 2 * eye], [q * dt**2 / 2 * eye, q * dt * eye]])
+    Q = np.zeros((6, 6))
+    Q[i, i] = q * dt**3 / 3
+    Q[i, i + 3] = Q[i + 3, i] = q * dt**2 / 2
+    Q[i + 3, i + 3] = q * dt
     b = np.zeros(6)
     if gravity is not None:
         b[:3] = 0.5 * gravity * dt * dt
@@ -106,6 +111,7 @@ class TrackManager:
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
         self._next_id = 1
+        self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ------------------------------------------------------------------ public
 
@@ -181,15 +187,28 @@ class TrackManager:
         dt = max(0.0, time - tr.time)
         if dt == 0.0:
             return tr.x.copy(), tr.P.copy()
-        F, Q, b = motion_model(dt, self.settings.accel_noise, self.gravity if tr.in_flight else None)
-        return F @ tr.x + b, F @ tr.P @ F.T + Q
+        if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
+            return tr.prediction[3].copy(), tr.prediction[4].copy()
+        F, Q, b = self._motion_model(dt, tr.in_flight)
+        x, P = kalman_predict(tr.x, tr.P, F, Q, b)
+        tr.prediction = (time, tr.time, tr.in_flight, x, P)
+        return x.copy(), P.copy()
+
+    def _motion_model(self, dt: float, in_flight: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``motion_model`` for this manager, remembered per (dt, in flight): every track of a frame shares dt."""
+        key = (dt, in_flight)
+        if key not in self._models:
+            if len(self._models) > 16:
+                self._models.clear()
+            self._models[key] = motion_model(dt, self.settings.accel_noise, self.gravity if in_flight else None)
+        return self._models[key]
 
     def _measurement_cov(self, obj: Object3D) -> np.ndarray:
         R = np.eye(3) * self.settings.measurement_sigma**2
         cov = np.asarray(obj.covariance, float) if obj.covariance is not None else None
-        if cov is not None and cov.shape == (3, 3) and np.all(np.isfinite(cov)):
+        if cov is not None and cov.shape == (3, 3) and np.isfinite(cov).all():
             R = R + 0.5 * (cov + cov.T)
-        if np.linalg.det(R) <= 0:  # zero noise everywhere: keep the filter invertible
+        if self.settings.measurement_sigma <= 0 and np.linalg.det(R) <= 0:  # zero noise everywhere: keep the filter invertible
             R = R + np.eye(3) * 1e-8
         return R
 
@@ -207,12 +226,7 @@ class TrackManager:
         return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
-        H = np.hstack([np.eye(3), np.zeros((3, 3))])
-        S = tr.P[:3, :3] + R
-        K = np.linalg.solve(S, tr.P[:3, :]).T  # P H^T S^-1 (S symmetric)
-        tr.x = tr.x + K @ (z - tr.x[:3])
-        IKH = np.eye(6) - K @ H
-        tr.P = IKH @ tr.P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive definite
+        tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
         tr.hit = True
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)

@@ -55,17 +55,18 @@ def test_systematic_resampling_is_proportional():
     assert list(np.bincount(idx, minlength=4)) == [400, 200, 100, 100]
 
 
-def test_log_gauss_from_quadratic_features_matches_the_textbook_formula():
-    from stereotrack.clustering import _log_gauss, _quadratic_features
+def test_compiled_log_gauss_matches_the_textbook_formula():
+    from stereotrack.kernels import log_gauss
 
     rng = np.random.default_rng(3)
     X = rng.normal([0.1, 1.5, -0.2], 0.2, (300, 3))
     means = rng.normal([0.1, 1.5, -0.2], 0.1, (5, 3))
     A = rng.normal(0, 0.03, (5, 3, 3))
     covs = A @ A.transpose(0, 2, 1) + np.eye(3) * 1e-4  # ball-sized, some long and thin
-    got = _log_gauss(_quadratic_features(X), means, covs)
+    pis = np.array([0.1, 0.2, 0.3, 0.25, 0.15])
+    got = log_gauss(X, means, covs, pis)
     for k in range(5):
         d = X - means[k]
         maha = np.einsum("ni,ij,nj->n", d, np.linalg.inv(covs[k]), d)
-        want = -0.5 * (maha + np.log(np.linalg.det(covs[k])) + 3 * np.log(2 * np.pi))
+        want = np.log(pis[k]) - 0.5 * (maha + np.log(np.linalg.det(covs[k])) + 3 * np.log(2 * np.pi))
         assert np.allclose(got[:, k], want, rtol=1e-9, atol=1e-6)

@@ -62,9 +62,11 @@ def make_tracker(method: str, rig, config, keep_rays: bool = False):
         from ..baseline import BaselineTracker
 
         return BaselineTracker(rig, config)
+    from ..console import notice_if_slow
     from ..pipeline import Tracker
 
-    return Tracker(rig, config, keep_rays=keep_rays)
+    with notice_if_slow("compiling the tracker's kernels (first run on this machine only: up to a minute) ..."):
+        return Tracker(rig, config, keep_rays=keep_rays)
 
 
 def track_recording(args, default_out: Path | None = None) -> int:
