@@ -54,7 +54,7 @@ class TrackerSettings:
     em: str = "numpy"  # "numpy" (weighted EM, default) or "sklearn" (GaussianMixture on resampled particles; slower)
     particle_velocity: bool = True  # particles near a track drift with its velocity (else the paper's pure random walk)
     exclusion: bool = True  # a particle following one track dies inside another tracked ball (seed 000's blocking)
-    occlusion: bool = True  # a camera whose view of a particle is blocked by a tracked ball does not judge it
+    occlusion: bool = True  # a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it
     refine: bool = True  # objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from particles + motion)
     disc_fit: bool = True  # with one clean view and a blob shared with other balls in another: depth along the ray where the balls' discs best make up that blob
     seed: int = 0  # random seed; runs are reproducible

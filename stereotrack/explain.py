@@ -118,13 +118,15 @@ def explain(
     settings: ExplainSettings,
     predicted: np.ndarray | None = None,
     rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
+    occluders: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[list[Object3D], np.ndarray]:
     """Keep the objects that explain blobs.
 
     ``predicted``: where tracks of this colour expect balls; ``rays``: the
-    blobs' viewing rays per camera (origins, directions), if already known.
-    Returns (kept objects, index of the kept object each input object went
-    into, or -1 if it was dropped).
+    blobs' viewing rays per camera (origins, directions), if already known;
+    ``occluders``: tracked balls of other colours (centres B x 3, radii B),
+    whose discs hide part of a ball behind them. Returns (kept objects, index
+    of the kept object each input object went into, or -1 if it was dropped).
     """
     into = np.full(len(objects), -1)
     if not objects:
@@ -165,7 +167,8 @@ def explain(
     if settings.refine:
         if rays is None:
             rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
-        out = _refine_all(merged, kept, blob_ids, log_ratio, cameras, blobs, rays, settings, predicted)
+        hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
+        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted)
     return out, into
 
 
@@ -198,19 +201,42 @@ def _mates(i: int, kept: list[int], blob_ids: np.ndarray) -> list[tuple[int, lis
     return out
 
 
-def _clean_views(i: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, settings: ExplainSettings):
-    """(cameras where kept ball i has a blob of its own and of its size, [(camera, mates)] where it shares its blob)."""
+def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> np.ndarray:
+    """Per ball (K) and camera: a nearer ball of another colour covers part of its disc there (K x C bool).
+
+    Its blob is then cut by the other ball's outline, and the centroid of
+    what is left is not the ball's centre, even while the blob still looks
+    about ball-sized (a disc cut on one side keeps its other extent).
+    """
+    out = np.zeros((len(positions), len(cameras)), bool)
+    if occluders is None or not len(occluders[0]) or not len(positions):
+        return out
+    centres, radii = occluders
+    for j, cam in enumerate(cameras):
+        f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])
+        uv, front, z = cam.view(positions)
+        ouv, ofront, oz = cam.view(centres)
+        r = f * radius / np.maximum(z, 1e-6)
+        orad = f * radii / np.maximum(oz, 1e-6)
+        apart = np.linalg.norm(uv[:, None] - ouv[None], axis=2)
+        out[:, j] = (front[:, None] & ofront[None] & (oz[None] < z[:, None]) & (apart < r[:, None] + orad[None])).any(axis=1)
+    return out
+
+
+def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings):
+    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size and not cut by a nearer
+    ball of another colour, [(camera, mates)] where it shares its blob)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
     good = [
         j for j in range(blob_ids.shape[1])
         # unseen, clipped or occluded in a camera: not clean there
-        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance
+        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance and not hidden[n, j]
     ]
     return good, shared
 
 
-def _refine_all(merged, kept, blob_ids, log_ratio, cameras, blobs, rays, settings, predicted) -> list[Object3D]:
+def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
     Balls with two or more clean views are triangulated together (one call per set of cameras); a
@@ -218,7 +244,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, cameras, blobs, rays, setting
     then placed against the other balls' discs there, one ball at a time, each against the latest
     positions of the others.
     """
-    views = {i: _clean_views(i, kept, blob_ids, log_ratio, settings) for i in kept}
+    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, settings) for n, i in enumerate(kept)}
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}
     for i in kept:

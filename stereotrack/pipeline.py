@@ -105,7 +105,9 @@ class Tracker:
             self.prev_means[t.name] = cl.means
             candidates = [Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))]
             pred = np.array([tr.position for tr in live if tr.target == t.name]).reshape(-1, 3)
-            kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred, rays[t.name])
+            others = [tr for tr in live if tr.target != t.name] if s.occlusion else []
+            occluders = (np.array([tr.position for tr in others]).reshape(-1, 3), np.array([radius[tr.target] for tr in others]))
+            kept_objects, into = explain(candidates, cams, blobs[t.name], self.explain_settings[t.name], pred, rays[t.name], occluders)
             remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
             objects.extend(kept_objects)
             particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))

@@ -56,3 +56,26 @@ def test_a_ball_in_a_shared_blob_takes_the_depth_where_the_discs_make_up_the_blo
         else:
             assert error > 0.06  # without the fit the particles' bias stays
         assert np.linalg.norm(kept[0].position - a) < 0.02
+
+
+def test_a_ball_cut_by_a_nearer_ball_of_another_colour_is_not_placed_by_its_cut_blob():
+    """An orange ball in front of a pink one covers part of the pink disc in cam0 only. The cut blob
+    still looks ball-sized (it keeps its other extent) but its centroid is off the ball's centre:
+    told where the orange ball is, explain takes the pink ball's depth along its clean cam1 view."""
+    rig = default_rig()
+    c0, c1 = rig.cameras
+    pink = np.array([0.0, 1.8, 0.0])
+    ray0 = (pink - c0.centre) / np.linalg.norm(pink - c0.centre)
+    orange = c0.centre + 1.2 * ray0 + np.array([-0.042, 0.0, 0.0])  # overlaps about a third of the pink disc in cam0
+    pink_masks, _ = disc_masks(rig, pink[None])
+    orange_masks, _ = disc_masks(rig, orange[None])
+    masks = [p & (1 - o) for p, o in zip(pink_masks, orange_masks)]
+    cut = [int(p.sum() - m.sum()) for p, m in zip(pink_masks, masks)]
+    assert cut[0] > 60 and cut[1] == 0  # cut in cam0 only
+    blobs = [find_blobs(m) for m in masks]
+    objects = [obj(pink + 0.004 * ray0)]  # the particles are right, to within their noise
+    occluders = (orange[None], np.array([RADIUS]))
+    naive, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS))
+    told, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS), occluders=occluders)
+    assert np.linalg.norm(naive[0].position - pink) > 0.04  # triangulating the cut centroid is far off in depth
+    assert np.linalg.norm(told[0].position - pink) < 0.01
