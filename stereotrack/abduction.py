@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
-from .kernels import component_boxes, mask_moments
+from .kernels import component_boxes, crossing_points, mask_moments
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,29 +160,13 @@ def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, ski
     if rays is None:
         rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
     rays = [r if len(b) else None for r, b in zip(rays, blobs)]
-    out = []
-    for j in range(len(rays)):
-        for k in range(j + 1, len(rays)):
-            if rays[j] is None or rays[k] is None:
-                continue
-            (o1, d1), (o2, d2) = rays[j], rays[k]
-            # Closest points o1 + s d1 and o2 + t d2 for every pair (unit directions).
-            w = o1[:, None] - o2[None]  # A x B x 3
-            b = d1 @ d2.T
-            dd = (w * d1[:, None]).sum(-1)
-            e = (w * d2[None]).sum(-1)
-            den = np.maximum(1.0 - b * b, 1e-9)
-            s_ = (b * e - dd) / den
-            t_ = (e - b * dd) / den
-            p1 = o1[:, None] + s_[..., None] * d1[:, None]
-            p2 = o2[None] + t_[..., None] * d2[None]
-            mid = 0.5 * (p1 + p2)
-            ok = (np.linalg.norm(p1 - p2, axis=-1) < radius) & (s_ > d_min) & (s_ < d_max) & (t_ > d_min) & (t_ < d_max)
-            for cam, r_blob in ((cameras[j], blobs[j].radii[:, None]), (cameras[k], blobs[k].radii[None, :])):
-                z = cam.depth(mid.reshape(-1, 3)).reshape(mid.shape[:2])
-                expected = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.maximum(z, 1e-6)
-                ok &= np.abs(np.log(np.maximum(r_blob, 0.5) / expected)) < np.log(slack)
-            if skip is not None:
-                ok &= ~skip[j][:, None] & ~skip[k][None, :]
-            out.append(mid[ok])
+    use = [np.ones(len(b), bool) if skip is None else ~np.asarray(skip[j], bool) for j, b in enumerate(blobs)]
+    f = [0.5 * (cam.K[0, 0] + cam.K[1, 1]) for cam in cameras]
+    out = [
+        crossing_points(
+            *rays[j], blobs[j].radii, use[j], *rays[k], blobs[k].radii, use[k],
+            cameras[j].R, cameras[j].t, f[j], cameras[k].R, cameras[k].t, f[k], radius, d_min, d_max, slack,
+        )
+        for j in range(len(rays)) for k in range(j + 1, len(rays)) if rays[j] is not None and rays[k] is not None
+    ]
     return np.vstack(out) if out else np.zeros((0, 3))

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from .abduction import find_blobs
-from .camera import Camera, Rig
+from .camera import Camera, Rig, triangulate_with_covariance
 from .colour import camera_masks
 from .config import Config
 from .errors import StereotrackError
@@ -88,21 +88,9 @@ def triangulate_pairs(cam_a: Camera, cam_b: Camera, pa: np.ndarray, pb: np.ndarr
 
 
 def triangulation_covariance(cam_a: Camera, cam_b: Camera, pa: np.ndarray, pb: np.ndarray, pixel_sigma: float) -> np.ndarray:
-    """Position covariance (N x 3 x 3) of triangulated points for isotropic pixel noise: sigma^2 J J^T.
-
-    J (3 x 4 per point) by central differences of the triangulation: it grows
-    along the viewing direction with depth / baseline, as it should.
-    """
-    n = len(pa)
-    if n == 0:
-        return np.zeros((0, 3, 3))
-    h = 0.5  # pixels
-    steps = np.vstack([np.eye(4) * h, -np.eye(4) * h])  # +h then -h on each of the four pixel coordinates
-    # One triangulation call for all 8 x n perturbed pairs (row s * n + i: step s on point i).
-    pts = triangulate_pairs(cam_a, cam_b, (pa[None] + steps[:, None, :2]).reshape(-1, 2), (pb[None] + steps[:, None, 2:]).reshape(-1, 2))
-    pts = pts.reshape(8, n, 3)
-    J = ((pts[:4] - pts[4:]) / (2 * h)).transpose(1, 2, 0)  # n x 3 x 4
-    return pixel_sigma**2 * J @ J.transpose(0, 2, 1)
+    """Position covariance (N x 3 x 3) of triangulated points for isotropic pixel noise (see
+    ``camera.triangulate_with_covariance``)."""
+    return triangulate_with_covariance([cam_a, cam_b], [pa, pb], pixel_sigma)[1]
 
 
 class BaselineTracker:

@@ -212,6 +212,28 @@ def triangulate_points(cameras: Sequence[Camera], pixels: Sequence[np.ndarray]) 
     return kernels().triangulate_dlt(xn, np.ascontiguousarray(P, dtype=float))
 
 
+def triangulate_with_covariance(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], pixel_sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """``triangulate_points`` plus each point's covariance for isotropic pixel noise ``pixel_sigma``:
+    sigma^2 J J', J (3 x 4) the derivative of the first two cameras' triangulation with respect to
+    their four pixel coordinates, by central differences. It grows along the viewing direction with
+    depth / baseline, as it should. Returns (points M x 3, covariances M x 3 x 3)."""
+    m = len(pixels[0])
+    if m == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3, 3))
+    h = 0.5  # pixels
+    steps = np.vstack([np.eye(4) * h, -np.eye(4) * h])  # +h then -h on each of the four pixel coordinates
+    # Row s * m + i: step s on point i.
+    moved = [(pixels[0][None] + steps[:, None, :2]).reshape(-1, 2), (pixels[1][None] + steps[:, None, 2:]).reshape(-1, 2)]
+    if len(cameras) == 2:  # one triangulation call for the points and their 8 perturbed copies
+        both = triangulate_points(cameras, [np.vstack([p, q]) for p, q in zip(pixels, moved)])
+        points, moved_points = both[:m], both[m:]
+    else:
+        points, moved_points = triangulate_points(cameras, pixels), triangulate_points(cameras[:2], moved)
+    moved_points = moved_points.reshape(8, m, 3)
+    J = ((moved_points[:4] - moved_points[4:]) / (2 * h)).transpose(1, 2, 0)  # m x 3 x 4
+    return points, pixel_sigma**2 * J @ J.transpose(0, 2, 1)
+
+
 def look_at(eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, -1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
     """World -> camera (R, t) for a camera at ``eye`` looking at ``target``.
 

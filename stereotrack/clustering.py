@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 
 from .camera import Camera, stacked_kernel_arrays
-from .kernels import greedy_seeds, hard_labels, merge_one_ball_clusters, weighted_em, weighted_moments
+from .kernels import greedy_seeds, hard_labels, merge_one_ball_clusters, projected_spreads, weighted_em, weighted_moments
 
 @dataclass(frozen=True)
 class ClusterSettings:
@@ -85,30 +85,6 @@ def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, n
         f_over_z = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) / np.maximum(z, 1e-6)
         out.append((uv, ok, f_over_z))
     return out
-
-
-def _projected_spreads(views, w: np.ndarray, labels: np.ndarray, k: int, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per cluster: the largest ratio (projected std / apparent ball radius) over cameras, and that camera's index.
-
-    Weighted image moments of every cluster at once (bincount), with the
-    largest eigenvalue of each 2 x 2 covariance in closed form.
-    """
-    best = np.zeros(k)
-    which = np.zeros(k, int)
-    member = labels >= 0
-    for j, (uv, ok, f_over_z) in enumerate(views):
-        sel = member & ok
-        lab, ww, u, v = labels[sel], w[sel], uv[sel, 0], uv[sel, 1]
-        m = lambda x: np.bincount(lab, weights=ww * x, minlength=k)  # noqa: E731
-        s0 = np.maximum(np.bincount(lab, weights=ww, minlength=k), 1e-300)
-        cu, cv = m(u) / s0, m(v) / s0
-        suu, svv, suv = m(u * u) / s0 - cu**2, m(v * v) / s0 - cv**2, m(u * v) / s0 - cu * cv
-        lam = 0.5 * (suu + svv) + np.sqrt(np.maximum(0.25 * (suu - svv) ** 2 + suv**2, 0.0))
-        r_px = radius * m(f_over_z) / s0  # the cluster's apparent ball radius, pixels
-        ratio = np.where(np.bincount(lab, minlength=k) >= 3, np.sqrt(np.maximum(lam, 0.0)) / np.maximum(r_px, 1e-9), 0.0)
-        better = ratio > best
-        best, which = np.where(better, ratio, best), np.where(better, j, which)
-    return best, which
 
 
 def _split_halves(views, X: np.ndarray, w: np.ndarray, member: np.ndarray, camera: int):
@@ -181,7 +157,7 @@ def cluster_particles(
             new_means, new_covs = [], []
             # A cluster whose 3D spread is under one radius cannot look wider than one ball.
             wide = np.sqrt(np.linalg.eigvalsh(covs)[:, -1]) > settings.split_factor * R
-            ratios, cams = _projected_spreads(views, w, labels, len(means), R)
+            ratios, cams = projected_spreads(uv, ok, f_over_z, w, labels, len(means), R)
             ratios = np.where(wide, ratios, 0.0)
             for k in range(len(means)):
                 split = ratios[k] > settings.split_factor and len(means) + len(new_means) < settings.max_objects

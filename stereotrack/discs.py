@@ -17,7 +17,7 @@ import numpy as np
 
 from .abduction import Blobs
 from .camera import Camera
-from .kernels import disc_union_mismatch
+from .kernels import ball_union_mismatch, posterior_depth
 
 
 def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray, others: np.ndarray, radius: float) -> np.ndarray:
@@ -30,18 +30,10 @@ def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray,
     image. Candidates behind the camera get +inf. Needs the blob finder's
     label image and boxes.
     """
-    points = np.vstack([candidates, others])
-    uv, front, z = cam.view(points)
-    r = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, z, 1.0)
-    n = len(candidates)
-    out = np.full(n, np.inf)
-    t = np.flatnonzero(front[:n])
-    if len(t):
-        k = n + np.flatnonzero(front[n:])
-        out[t] = disc_union_mismatch(
-            blobs.labels, blobs.label_blob, blob, blobs.boxes[blob], blobs.label_scale, uv[t], r[t], uv[k], r[k]
-        )
-    return out
+    return ball_union_mismatch(
+        np.ascontiguousarray(candidates, dtype=float), np.ascontiguousarray(others, dtype=float).reshape(-1, 3), radius,
+        *cam._kernel_arrays, blobs.labels, blobs.label_blob, blob, blobs.boxes[blob], blobs.label_scale,
+    )
 
 
 @dataclass(frozen=True)
@@ -59,11 +51,7 @@ def depth_on_ray(mismatch: np.ndarray, depths: np.ndarray, prior: float, prior_s
     not (a ball hidden behind a nearer one fits anywhere behind it) the prior
     picks the point and the spread says how little the blob knew.
     """
-    ok = np.isfinite(mismatch)
-    if not ok.any() or scale <= 0:
+    if scale <= 0:
         return None
-    t, m = depths[ok], mismatch[ok]
-    logw = -(m - m.min()) / scale - 0.5 * ((t - prior) / max(prior_sigma, 1e-6)) ** 2
-    w = np.exp(logw - logw.max())
-    mean = float((w * t).sum() / w.sum())
-    return RayFit(mean, float(np.sqrt((w * (t - mean) ** 2).sum() / w.sum())))
+    mean, sigma = posterior_depth(np.asarray(mismatch, dtype=float), np.asarray(depths, dtype=float), float(prior), float(prior_sigma), float(scale))
+    return None if np.isnan(mean) else RayFit(mean, sigma)

@@ -36,8 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from .abduction import Blobs
-from .baseline import triangulation_covariance
-from .camera import Camera, triangulate_points
+from .camera import Camera, triangulate_with_covariance
 from .discs import RayFit, depth_on_ray, union_mismatch
 from .kernels import blob_at
 from .results import Object3D
@@ -58,6 +57,7 @@ class ExplainSettings:
 
 
 _NO_LABELS = np.zeros((1, 1), np.int32)
+_DEPTH_STEPS = np.linspace(0.0, 1.0, 41)  # the disc fit's candidate depths, spread over its search range
 
 
 def _blob_ids(cam: Camera, blobs: Blobs, uv: np.ndarray, ok: np.ndarray, r_px: np.ndarray) -> np.ndarray:
@@ -81,7 +81,7 @@ def _merge(objs: Sequence[Object3D]) -> Object3D:
     total = m.sum()
     mean = m @ mu / total
     d = mu - mean
-    cov = (np.tensordot(m, np.array([o.covariance for o in objs]), 1) + (m[:, None] * d).T @ d) / total
+    cov = (sum(mi * o.covariance for mi, o in zip(m, objs)) + (m[:, None] * d).T @ d) / total
     return Object3D(objs[0].target, mean, cov, float(total), int(sum(o.n_particles for o in objs)))
 
 
@@ -252,9 +252,8 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
             by_cameras.setdefault(tuple(views[i][0]), []).append(i)
     for good, idx in by_cameras.items():
         px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
-        points = triangulate_points([cameras[j] for j in good], px)
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
-        covs = triangulation_covariance(cameras[good[0]], cameras[good[1]], px[0], px[1], settings.centroid_sigma_px)
+        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, settings.centroid_sigma_px)
         for i, point, cov in zip(idx, points, covs):
             if np.linalg.norm(point - merged[i].position) <= 3 * settings.radius:  # else the blobs disagree with the particles
                 out[i] = replace(merged[i], position=point, covariance=cov)
@@ -307,7 +306,8 @@ def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, s
     if positions is None or any(blobs[j].boxes is None for j, _ in shared):
         return None
     half = 3.0 * np.sqrt(along)
-    depths = np.linspace(max(depth - half, 0.05), depth + half, 41)
+    lo = max(depth - half, 0.05)
+    depths = lo + (depth + half - lo) * _DEPTH_STEPS
     candidates = o + depths[:, None] * d
     mismatch = np.zeros(len(depths))
     area = 0.0

@@ -39,6 +39,24 @@ def _sqdist(A, i, B, j):
 
 
 @kernel
+def _inverse_logdet(c):
+    """Inverse (3 x 3) and log-determinant of one symmetric positive-definite 3 x 3 matrix."""
+    a, b, cc, d, e, f = c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]
+    A = d * f - e * e
+    B = cc * e - b * f
+    C = b * e - cc * d
+    D = a * f - cc * cc
+    E = b * cc - a * e
+    F = a * d - b * b
+    det = a * A + b * B + cc * C
+    inv = np.empty((3, 3))
+    inv[0, 0], inv[0, 1], inv[0, 2] = A / det, B / det, C / det
+    inv[1, 0], inv[1, 1], inv[1, 2] = B / det, D / det, E / det
+    inv[2, 0], inv[2, 1], inv[2, 2] = C / det, E / det, F / det
+    return inv, math.log(det)
+
+
+@kernel
 def project_points(points, R, t, K, k, tilt):
     """World points (N x 3) -> distorted pixels (N x 2), in-front flags and depths (camera z), with
     OpenCV's model: 12 coefficients ``k`` (k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4, zero-padded) and
@@ -82,19 +100,37 @@ def project_points(points, R, t, K, k, tilt):
 @kernel
 def triangulate_dlt(xn, P):
     """Linear (DLT) triangulation of M points seen by C cameras: normalised undistorted coordinates
-    ``xn`` (C x M x 2) and normalised projection matrices [R | t] ``P`` (C x 3 x 4) -> M x 3. The
-    homogeneous least-squares solution is the last right singular vector of the 2C x 4 system."""
+    ``xn`` (C x M x 2) and normalised projection matrices [R | t] ``P`` (C x 3 x 4) -> M x 3.
+
+    Each camera gives two linear equations in the point (x P3 - P1, y P3 - P2);
+    the least-squares point solves their 3 x 3 normal equations (for rays that
+    meet, exactly the homogeneous SVD solution; a 4 x 4 SVD per point costs
+    far more than the geometry needs).
+    """
     c, m = xn.shape[0], xn.shape[1]
     out = np.empty((m, 3))
-    A = np.empty((2 * c, 4))
     for i in range(m):
+        AtA = np.zeros((3, 3))
+        Atb = np.zeros(3)
         for j in range(c):
-            for k in range(4):
-                A[2 * j, k] = xn[j, i, 0] * P[j, 2, k] - P[j, 0, k]
-                A[2 * j + 1, k] = xn[j, i, 1] * P[j, 2, k] - P[j, 1, k]
-        _, _, vt = np.linalg.svd(A)
-        for k in range(3):
-            out[i, k] = vt[3, k] / vt[3, 3]
+            for row in range(2):
+                a0 = xn[j, i, row] * P[j, 2, 0] - P[j, row, 0]
+                a1 = xn[j, i, row] * P[j, 2, 1] - P[j, row, 1]
+                a2 = xn[j, i, row] * P[j, 2, 2] - P[j, row, 2]
+                rhs = -(xn[j, i, row] * P[j, 2, 3] - P[j, row, 3])
+                AtA[0, 0] += a0 * a0
+                AtA[0, 1] += a0 * a1
+                AtA[0, 2] += a0 * a2
+                AtA[1, 1] += a1 * a1
+                AtA[1, 2] += a1 * a2
+                AtA[2, 2] += a2 * a2
+                Atb[0] += a0 * rhs
+                Atb[1] += a1 * rhs
+                Atb[2] += a2 * rhs
+        AtA[1, 0], AtA[2, 0], AtA[2, 1] = AtA[0, 1], AtA[0, 2], AtA[1, 2]
+        inv, _ = _inverse_logdet(AtA)
+        for a in range(3):
+            out[i, a] = inv[a, 0] * Atb[0] + inv[a, 1] * Atb[1] + inv[a, 2] * Atb[2]
     return out
 
 
@@ -159,6 +195,50 @@ def mask_moments(mask, boxes, scale):
     return count, centre, size
 
 
+@kernel
+def crossing_points(o1, d1, r1, use1, o2, d2, r2, use2, R1, t1, f1, R2, t2, f2, radius, d_min, d_max, slack):
+    """Midpoints of the closest approach of every pair of rays, one from each of two cameras, that
+    (nearly) meet: closer than ``radius``, between ``d_min`` and ``d_max`` along both rays, and with
+    both blobs (radii ``r1``, ``r2`` in pixels) within ``slack`` times the size a ball of that radius
+    has there (camera rotation R, translation t, focal length f). Blobs not in ``use1``/``use2`` are
+    skipped. Rays: origins and unit directions, A x 3 and B x 3. Returns K x 3."""
+    out = np.empty((o1.shape[0] * o2.shape[0], 3))
+    n = 0
+    log_slack = math.log(slack)
+    for a in range(o1.shape[0]):
+        if not use1[a]:
+            continue
+        for b in range(o2.shape[0]):
+            if not use2[b]:
+                continue
+            w0, w1, w2 = o1[a, 0] - o2[b, 0], o1[a, 1] - o2[b, 1], o1[a, 2] - o2[b, 2]
+            cos = d1[a, 0] * d2[b, 0] + d1[a, 1] * d2[b, 1] + d1[a, 2] * d2[b, 2]
+            dd = w0 * d1[a, 0] + w1 * d1[a, 1] + w2 * d1[a, 2]
+            e = w0 * d2[b, 0] + w1 * d2[b, 1] + w2 * d2[b, 2]
+            den = max(1.0 - cos * cos, 1e-9)
+            s = (cos * e - dd) / den
+            t = (e - cos * dd) / den
+            if not (s > d_min and s < d_max and t > d_min and t < d_max):
+                continue
+            p = np.empty(3)
+            gap = 0.0
+            for i in range(3):
+                p1 = o1[a, i] + s * d1[a, i]
+                p2 = o2[b, i] + t * d2[b, i]
+                p[i] = 0.5 * (p1 + p2)
+                gap += (p1 - p2) ** 2
+            if not math.sqrt(gap) < radius:
+                continue
+            z1 = R1[2, 0] * p[0] + R1[2, 1] * p[1] + R1[2, 2] * p[2] + t1[2]
+            z2 = R2[2, 0] * p[0] + R2[2, 1] * p[1] + R2[2, 2] * p[2] + t2[2]
+            size1 = abs(math.log(max(r1[a], 0.5) / (f1 * radius / max(z1, 1e-6))))
+            size2 = abs(math.log(max(r2[b], 0.5) / (f2 * radius / max(z2, 1e-6))))
+            if size1 < log_slack and size2 < log_slack:
+                out[n] = p
+                n += 1
+    return out[:n].copy()
+
+
 # --------------------------------------------------------------------------- Particles (likelihood.py, population.py, pipeline.py)
 
 
@@ -203,6 +283,19 @@ def hidden_by_balls(eye, positions, centres, radii):
 
 
 @kernel
+def camera_likelihood(out, positions, R, t, K, k, tilt, integral, window, eye, occ_centres, occ_radii):
+    """Multiply ``out`` (N) by one camera's eq. 14 factor max(1, r) / W^2 for every particle; a
+    particle hidden from this camera (``eye``) by an occluding ball counts 1 there."""
+    uv, front, _ = project_points(positions, R, t, K, k, tilt)
+    r = window_counts(integral, uv, front, window)
+    hidden = hidden_by_balls(eye, positions, occ_centres, occ_radii)
+    area = float(window * window)
+    for i in range(positions.shape[0]):
+        if not hidden[i]:
+            out[i] *= max(1, r[i]) / area
+
+
+@kernel
 def intruders(points, owners, centres, radii, ball_ids):
     """Per point: it follows a ball (owner id >= 0) but lies inside another ball (N bool)."""
     out = np.zeros(points.shape[0], np.bool_)
@@ -231,24 +324,6 @@ def nearest_within(points, centres, limit):
 
 
 # --------------------------------------------------------------------------- Clustering (clustering.py)
-
-
-@kernel
-def _inverse_logdet(c):
-    """Inverse (3 x 3) and log-determinant of one symmetric positive-definite 3 x 3 matrix."""
-    a, b, cc, d, e, f = c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]
-    A = d * f - e * e
-    B = cc * e - b * f
-    C = b * e - cc * d
-    D = a * f - cc * cc
-    E = b * cc - a * e
-    F = a * d - b * b
-    det = a * A + b * B + cc * C
-    inv = np.empty((3, 3))
-    inv[0, 0], inv[0, 1], inv[0, 2] = A / det, B / det, C / det
-    inv[1, 0], inv[1, 1], inv[1, 2] = B / det, D / det, E / det
-    inv[2, 0], inv[2, 1], inv[2, 2] = C / det, E / det, F / det
-    return inv, math.log(det)
 
 
 @kernel
@@ -439,6 +514,44 @@ def greedy_seeds(X, w, prev_means, radius, min_mass, max_objects, uv, ok, f_over
 
 
 @kernel
+def projected_spreads(uv, ok, f_over_z, w, labels, k, radius):
+    """Per cluster: the largest ratio (projected standard deviation along its principal axis /
+    apparent ball radius) over cameras, and that camera's index. Points per camera: pixels ``uv``
+    (C x N x 2), in front ``ok`` (C x N), focal length over depth ``f_over_z`` (C x N); weights ``w``,
+    cluster ``labels`` (-1: none). Clusters seen by fewer than 3 points in a camera get 0 there."""
+    best = np.zeros(k)
+    which = np.zeros(k, np.int64)
+    for c in range(uv.shape[0]):
+        s = np.zeros((k, 7))  # weight, u, v, uu, vv, uv, f/z sums; and a count
+        count = np.zeros(k, np.int64)
+        for i in range(uv.shape[1]):
+            lab = labels[i]
+            if lab < 0 or not ok[c, i]:
+                continue
+            u, v, ww = uv[c, i, 0], uv[c, i, 1], w[i]
+            s[lab, 0] += ww
+            s[lab, 1] += ww * u
+            s[lab, 2] += ww * v
+            s[lab, 3] += ww * u * u
+            s[lab, 4] += ww * v * v
+            s[lab, 5] += ww * u * v
+            s[lab, 6] += ww * f_over_z[c, i]
+            count[lab] += 1
+        for q in range(k):
+            if count[q] < 3:
+                continue
+            s0 = max(s[q, 0], 1e-300)
+            cu, cv = s[q, 1] / s0, s[q, 2] / s0
+            suu, svv, suv = s[q, 3] / s0 - cu * cu, s[q, 4] / s0 - cv * cv, s[q, 5] / s0 - cu * cv
+            lam = 0.5 * (suu + svv) + math.sqrt(max(0.25 * (suu - svv) ** 2 + suv * suv, 0.0))
+            r_px = radius * s[q, 6] / s0  # the cluster's apparent ball radius, pixels
+            ratio = math.sqrt(max(lam, 0.0)) / max(r_px, 1e-9)
+            if ratio > best[q]:
+                best[q], which[q] = ratio, c
+    return best, which
+
+
+@kernel
 def merge_one_ball_clusters(means, mass, labels, radius, Rs, ts, Ks, ks, tilts):
     """Merge every pair of clusters that is one ball, the closest pair first, until none is left.
 
@@ -587,7 +700,73 @@ def disc_union_mismatch(labels, label_blob, blob, box, scale, cand_uv, cand_r, o
     return out
 
 
+@kernel
+def ball_union_mismatch(candidates, others, radius, R, t, K, k, tilt, labels, label_blob, blob, box, scale):
+    """``disc_union_mismatch`` for balls given in the world: candidate positions (T x 3) of the ball
+    being placed and the other balls (K x 3) sharing the blob, seen by one camera (its projection
+    arrays). Candidates behind the camera get +inf; other balls behind it are left out."""
+    f = 0.5 * (K[0, 0] + K[1, 1])
+    uv_c, front_c, z_c = project_points(candidates, R, t, K, k, tilt)
+    uv_o, front_o, z_o = project_points(others, R, t, K, k, tilt)
+    seen_c, seen_o = np.flatnonzero(front_c), np.flatnonzero(front_o)
+    out = np.full(candidates.shape[0], np.inf)
+    if seen_c.size == 0:
+        return out
+    cand_uv, other_uv = uv_c[seen_c], uv_o[seen_o]
+    cand_r, other_r = f * radius / z_c[seen_c], f * radius / z_o[seen_o]
+    out[seen_c] = disc_union_mismatch(labels, label_blob, blob, box, scale, cand_uv, cand_r, other_uv, other_r)
+    return out
+
+
+@kernel
+def posterior_depth(mismatch, depths, prior, prior_sigma, scale):
+    """Mean and standard deviation of the depth under exp(-mismatch / scale) times a Gaussian prior
+    (see ``discs.depth_on_ray``); NaN when no depth has a finite mismatch."""
+    low = np.inf
+    for i in range(mismatch.shape[0]):
+        low = min(low, mismatch[i])
+    if not np.isfinite(low):
+        return np.nan, np.nan
+    logw = np.full(mismatch.shape[0], -np.inf)
+    top = -np.inf
+    for i in range(mismatch.shape[0]):
+        if np.isfinite(mismatch[i]):
+            logw[i] = -(mismatch[i] - low) / scale - 0.5 * ((depths[i] - prior) / max(prior_sigma, 1e-6)) ** 2
+            top = max(top, logw[i])
+    total, first = 0.0, 0.0
+    w = np.exp(logw - top)
+    for i in range(w.shape[0]):
+        total += w[i]
+        first += w[i] * depths[i]
+    mean = first / total
+    second = 0.0
+    for i in range(w.shape[0]):
+        second += w[i] * (depths[i] - mean) ** 2
+    return mean, math.sqrt(second / total)
+
+
 # --------------------------------------------------------------------------- Tracks (tracks.py)
+
+
+@kernel
+def association_costs(positions, covs, z, R):
+    """Every (track, object) pair's squared Mahalanobis distance d2 and its negative log-likelihood
+    cost d2 + log det S, S = P_track + R_object (positions T x 3 with covariances T x 3 x 3, objects
+    M x 3 with R M x 3 x 3). Returns (d2, cost), both T x M."""
+    T, M = positions.shape[0], z.shape[0]
+    d2 = np.empty((T, M))
+    cost = np.empty((T, M))
+    for a in range(T):
+        for b in range(M):
+            inv, logdet = _inverse_logdet(covs[a] + R[b])
+            y0, y1, y2 = z[b, 0] - positions[a, 0], z[b, 1] - positions[a, 1], z[b, 2] - positions[a, 2]
+            m = (
+                inv[0, 0] * y0 * y0 + inv[1, 1] * y1 * y1 + inv[2, 2] * y2 * y2
+                + 2.0 * (inv[0, 1] * y0 * y1 + inv[0, 2] * y0 * y2 + inv[1, 2] * y1 * y2)
+            )
+            d2[a, b] = m
+            cost[a, b] = m + logdet
+    return d2, cost
 
 
 @kernel
@@ -659,22 +838,28 @@ def kalman_correct(x, P, z, R):
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel, so the first frame is not the slow one."""
     X = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.1]])
+    camera_arrays = (np.eye(3), np.zeros(3), np.eye(3), np.zeros(12), np.eye(3))
     covs = np.repeat(np.eye(3)[None] * 1e-3, 2, axis=0)
     means, covs, pis, _ = weighted_em(X, np.ones(3), X[:2].copy(), covs, 1, 1e-6)
     hard_labels(X, means, covs, pis)
     weighted_moments(X, np.ones((3, 2)))
-    uv, ok, _ = project_points(X, np.eye(3), np.zeros(3), np.eye(3), np.zeros(12), np.eye(3))
+    uv, ok, _ = project_points(X, *camera_arrays)
     window_counts(np.zeros((5, 5), np.int32), uv, ok, 3)
     hidden_by_balls(np.zeros(3), X, X[:1].copy(), np.ones(1))
+    camera_likelihood(np.ones(3), X, *camera_arrays, np.zeros((5, 5), np.int32), 3, np.zeros(3), X[:1].copy(), np.ones(1))
     nearest_within(X, X[:1].copy(), 1.0)
+    yes = np.ones(3, np.bool_)
+    crossing_points(X, X, np.ones(3), yes, X, X, np.ones(3), yes, np.eye(3), np.zeros(3), 1.0, np.eye(3), np.zeros(3), 1.0, 0.02, 0.1, 5.0, 1.6)
     x6, P6 = kalman_predict(np.zeros(6), np.eye(6), np.eye(6), np.eye(6), np.zeros(6))
     kalman_correct(x6, P6, np.zeros(3), np.eye(3))
+    association_costs(X, np.repeat(np.eye(3)[None], 3, axis=0), X, np.repeat(np.eye(3)[None], 3, axis=0))
     P = np.zeros((2, 3, 4))
     P[:, :, :3] = np.eye(3)
     P[1, 0, 3] = -0.1
     triangulate_dlt(np.zeros((2, 1, 2)), P)
     intruders(X, np.zeros(3, np.int64), X[:1].copy(), np.ones(1), np.ones(1, np.int64))
     greedy_seeds(X, np.ones(3), X[:1].copy(), 0.02, 0.01, 12, uv[None].copy(), ok[None].copy(), np.ones((1, 3)))
+    projected_spreads(uv[None].copy(), ok[None].copy(), np.ones((1, 3)), np.ones(3), np.zeros(3, np.int64), 1, 0.02)
     eye = np.eye(3)[None].copy()
     merge_one_ball_clusters(X, np.ones(3), np.zeros(3, np.int64), 0.02, eye, np.zeros((1, 3)), eye, np.zeros((1, 12)), eye)
     labels = np.zeros((4, 4), np.int32)
@@ -684,3 +869,5 @@ def warm_up() -> None:
     uv = np.ascontiguousarray(X[:, :2])
     blob_at(uv, np.ones(3, np.bool_), np.ones(3), 4, 4, labels, np.array([-1, 0]), 1, True, uv[:1], np.ones(1))
     disc_union_mismatch(labels, np.array([-1, 0]), 0, np.array([1, 1, 3, 3], np.int64), 2, uv, np.ones(3), uv[:1], np.ones(1))
+    posterior_depth(np.array([1.0, np.inf]), np.array([1.0, 2.0]), 1.5, 0.1, 10.0)
+    ball_union_mismatch(X, X[:1].copy(), 0.02, *camera_arrays, labels, np.array([-1, 0]), 0, np.array([1, 1, 3, 3], np.int64), 2)

@@ -27,13 +27,6 @@ def window_counts(integral: np.ndarray, uv: np.ndarray, valid: np.ndarray, windo
     return kernels.window_counts(integral, np.ascontiguousarray(uv, dtype=float), np.ascontiguousarray(valid, dtype=bool), window)
 
 
-def camera_factor(camera: Camera, integral: np.ndarray, positions: np.ndarray, window: int) -> np.ndarray:
-    """One camera's factor max(1, r) / W^2 for every particle."""
-    uv, in_front = camera.project(positions)
-    r = window_counts(integral, uv, in_front, window)
-    return np.maximum(1, r) / float(window * window)
-
-
 def hidden_by_balls(camera: Camera, positions: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
     """Particles whose line of sight from ``camera`` passes through a ball in front of them (N bool).
 
@@ -56,10 +49,11 @@ def likelihood(
     view of a particle is blocked by one of them says nothing about it (factor
     1): the ball in front, not the particle, decides what that camera sees.
     """
+    positions = np.ascontiguousarray(positions, dtype=float).reshape(-1, 3)
+    centres, radii = occluders if occluders is not None else (np.zeros((0, 3)), np.zeros(0))
+    centres = np.ascontiguousarray(centres, dtype=float).reshape(-1, 3)
+    radii = np.ascontiguousarray(radii, dtype=float)
     out = np.ones(len(positions))
     for cam, integ in zip(cameras, integrals):
-        f = camera_factor(cam, integ, positions, window)
-        if occluders is not None:
-            f = np.where(hidden_by_balls(cam, positions, *occluders), 1.0, f)
-        out *= f
+        kernels.camera_likelihood(out, positions, *cam._kernel_arrays, integ, window, cam.centre, centres, radii)
     return out

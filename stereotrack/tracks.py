@@ -33,7 +33,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .camera import Rig
 from .config import TrackSettings
-from .kernels import kalman_correct, kalman_predict
+from .kernels import association_costs, kalman_correct, kalman_predict
 from .results import Object3D, TrackEstimate
 
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
@@ -145,7 +145,7 @@ class TrackManager:
         for target, idx in by_target.items():
             objs = [objects[i] for i in idx]
             z = np.array([o.position for o in objs], float).reshape(-1, 3)
-            R = np.stack([self._measurement_cov(o) for o in objs]) if objs else np.zeros((0, 3, 3))
+            R = self._measurement_covs(objs)
             free = np.ones(len(objs), bool)
             # Confirmed (and coasting) tracks choose first, so a clutter track never steals a ball's object.
             for stage in (True, False):
@@ -203,24 +203,23 @@ class TrackManager:
             self._models[key] = motion_model(dt, self.settings.accel_noise, self.gravity if in_flight else None)
         return self._models[key]
 
-    def _measurement_cov(self, obj: Object3D) -> np.ndarray:
-        R = np.eye(3) * self.settings.measurement_sigma**2
-        cov = np.asarray(obj.covariance, float) if obj.covariance is not None else None
-        if cov is not None and cov.shape == (3, 3) and np.isfinite(cov).all():
-            R = R + 0.5 * (cov + cov.T)
-        if self.settings.measurement_sigma <= 0 and np.linalg.det(R) <= 0:  # zero noise everywhere: keep the filter invertible
-            R = R + np.eye(3) * 1e-8
+    def _measurement_covs(self, objs: Sequence[Object3D]) -> np.ndarray:
+        """Per object (M x 3 x 3): the measurement noise plus the object's own covariance (symmetrised;
+        a missing or non-finite one counts zero)."""
+        zero = np.zeros((3, 3))
+        covs = np.array([zero if o.covariance is None or np.shape(o.covariance) != (3, 3) else o.covariance for o in objs], float).reshape(-1, 3, 3)
+        covs[~np.isfinite(covs).all(axis=(1, 2))] = zero
+        R = np.eye(3) * self.settings.measurement_sigma**2 + 0.5 * (covs + covs.transpose(0, 2, 1))
+        if self.settings.measurement_sigma <= 0:  # zero noise everywhere: keep the filter invertible
+            R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
         return R
 
     def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray) -> list[tuple[int, int]]:
         """Gated global assignment: pairs (track index, object index) with squared Mahalanobis distance <= gate."""
         pos = np.array([t.x[:3] for t in tracks])  # T x 3
         Pp = np.array([t.P[:3, :3] for t in tracks])  # T x 3 x 3
-        S = Pp[:, None] + R[None]  # T x M x 3 x 3
-        y = z[None] - pos[:, None]  # T x M x 3
-        d2 = np.einsum("tmi,tmi->tm", y, np.linalg.solve(S, y[..., None])[..., 0])
         # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
-        cost = d2 + np.linalg.slogdet(S)[1]
+        d2, cost = association_costs(pos, Pp, np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
         gated = d2 <= self.settings.gate
         rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
         return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]

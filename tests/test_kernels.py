@@ -18,20 +18,25 @@ from scene_helpers import RADIUS, default_rig
 STEP_AFTER_WARM_UP = """
 import json
 import numpy as np
+import stereotrack.discs as discs
 from stereotrack import kernels
 from stereotrack.pipeline import Tracker
 from stereotrack.recording import FramePair
 from stereotrack.synth import SceneRenderer, make_preset
 
-spec = make_preset("appear5", n_frames=40)
+spec = make_preset("pendulum4", n_frames=150)  # balls merge into shared blobs: every kernel runs
 renderer = SceneRenderer(spec)
 tracker = Tracker(renderer.rig, spec.config())  # warms the kernels up
 dispatchers = {name: k for name, k in vars(kernels).items() if hasattr(k, "signatures")}
 before = {name: len(k.signatures) for name, k in dispatchers.items()}
-for i in range(0, 40, 4):
+fits = []
+fit = discs.ball_union_mismatch
+discs.ball_union_mismatch = lambda *args: fits.append(1) or fit(*args)
+for i in range(150):
     images, _ = renderer.render(i)
     tracker.step(FramePair(i, tuple(images), (renderer.time(i),) * 2))
-print(json.dumps({"before": before, "after": {name: len(k.signatures) for name, k in dispatchers.items()}}))
+after = {name: len(k.signatures) for name, k in dispatchers.items()}
+print(json.dumps({"before": before, "after": after, "disc_fits": len(fits)}))
 """
 
 
@@ -43,6 +48,7 @@ def test_warm_up_compiles_the_signatures_a_tracker_step_uses():
     assert len(counts["before"]) >= 15
     assert counts["after"] == counts["before"]
     assert all(n == 1 for name, n in counts["before"].items() if not name.startswith("_") and name != "log_gauss")
+    assert counts["disc_fits"] > 0  # the disc fit ran too
 
 
 def test_weighted_em_counts_a_weight_as_repeated_points():
@@ -164,3 +170,15 @@ def test_greedy_seeds_keep_last_frames_objects_and_claim_new_balls():
     seeds = kernels.greedy_seeds(X, w, a[None] + 0.02, RADIUS, 0.05, 12, uv, ok, f_over_z)
     assert len(seeds) == 2  # a (from last frame's object) and b (new), nothing else weighs 0.05
     assert np.linalg.norm(seeds[0] - a) < 0.01 and np.linalg.norm(seeds[1] - b) < 0.01
+
+
+def test_association_costs_match_numpy():
+    rng = np.random.default_rng(6)
+    pos, z = rng.normal(size=(4, 3)), rng.normal(size=(5, 3))
+    A, B = rng.normal(size=(4, 3, 3)), rng.normal(size=(5, 3, 3))
+    P, R = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(3), B @ B.transpose(0, 2, 1) + 0.01 * np.eye(3)
+    d2, cost = kernels.association_costs(pos, P, z, R)
+    S = P[:, None] + R[None]
+    y = z[None] - pos[:, None]
+    want = np.einsum("tmi,tmi->tm", y, np.linalg.solve(S, y[..., None])[..., 0])
+    assert np.allclose(d2, want) and np.allclose(cost, want + np.linalg.slogdet(S)[1])
