@@ -36,6 +36,8 @@ def ensure_env() -> None:
     print("installing stereotrack and its dependencies into .venv (first run takes a minute or two) ...", flush=True)
     subprocess.check_call([str(PY), "-m", "pip", "install", "--quiet", "--upgrade", "pip"])
     subprocess.check_call([str(PY), "-m", "pip", "install", "--quiet", "-e", f"{ROOT}[test,eval]"])
+    print("compiling the tracker's kernels (once per install, about a minute) ...", flush=True)
+    subprocess.check_call([str(PY), "-c", "from stereotrack.kernels import warm_up; warm_up()"])
     STAMP.write_text(wanted)
 
 

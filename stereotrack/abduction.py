@@ -114,10 +114,10 @@ def depth_range_from_size(camera: Camera, radius_px: np.ndarray, ball_radius: fl
     Blobs of unknown size (NaN) keep [d_min, d_max].
     """
     f = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = f * ball_radius / radius_px
-    near = np.where(np.isfinite(z), np.clip(z / slack, d_min, d_max), d_min)
-    far = np.where(np.isfinite(z), np.clip(z * slack, d_min, d_max), d_max)
+    known = radius_px > 0  # NaN is not
+    z = f * ball_radius / np.where(known, radius_px, 1.0)
+    near = np.where(known, np.clip(z / slack, d_min, d_max), d_min)
+    far = np.where(known, np.clip(z * slack, d_min, d_max), d_max)
     far = np.maximum(far, near + 1e-3)
     return near, far
 

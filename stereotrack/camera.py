@@ -113,26 +113,22 @@ class Camera:
 
     def undistort_pixels(self, pixels: np.ndarray) -> np.ndarray:
         """Distorted pixels (N x 2) -> normalised undistorted coordinates (N x 2)."""
-        px = np.asarray(pixels, dtype=np.float64).reshape(-1, 1, 2)
+        px = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
         if len(px) == 0:
             return np.zeros((0, 2))
-        if self.dist.size == 0 or not np.any(self.dist):
-            K = self.K
-            xn = np.empty((len(px), 2))
-            xn[:, 1] = (px[:, 0, 1] - K[1, 2]) / K[1, 1]
-            xn[:, 0] = (px[:, 0, 0] - K[0, 2] - K[0, 1] * xn[:, 1]) / K[0, 0]
-            return xn
-        out = cv2.undistortPoints(px, self.K, self.dist, criteria=_UNDISTORT_CRITERIA)
+        if not self._distorted:
+            return kernels().unproject_pinhole(px, self._kernel_arrays[2])
+        out = cv2.undistortPoints(px.reshape(-1, 1, 2), self.K, self.dist, criteria=_UNDISTORT_CRITERIA)
         return out.reshape(-1, 2)
+
+    @cached_property
+    def _distorted(self) -> bool:
+        return bool(np.any(self.dist))
 
     def rays(self, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Back-project pixels (N x 2) to world rays: (origins N x 3, unit directions N x 3)."""
-        xn = self.undistort_pixels(pixels)
-        d_cam = np.hstack([xn, np.ones((len(xn), 1))])
-        d_world = d_cam @ self.R  # R.T @ d for each row
-        d_world /= np.linalg.norm(d_world, axis=1, keepdims=True)
-        origins = np.broadcast_to(self.centre, d_world.shape).copy()
-        return origins, d_world
+        R, t = self._kernel_arrays[:2]
+        return kernels().rays_from_normalised(self.undistort_pixels(pixels), R, t)
 
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Depth (z in the camera frame) of world points (N x 3)."""

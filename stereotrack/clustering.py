@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 
 from .camera import Camera, stacked_kernel_arrays
-from .kernels import greedy_seeds, hard_labels, merge_one_ball_clusters, projected_spreads, weighted_em, weighted_moments
+from .kernels import greedy_seeds, hard_labels, keep_heavy, label_moments, merge_one_ball_clusters, projected_spreads, systematic_resample, weighted_em
 
 @dataclass(frozen=True)
 class ClusterSettings:
@@ -71,10 +71,7 @@ def _sklearn_em(X, w, means, covs, iterations, reg, rng):
 
 def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
     """Systematic resampling: n indices drawn with probabilities ``weights`` (summing to 1)."""
-    cdf = np.cumsum(weights)
-    cdf[-1] = 1.0
-    u = (rng.random() + np.arange(n)) / n
-    return np.searchsorted(cdf, u, side="right").clip(0, len(weights) - 1)
+    return systematic_resample(np.ascontiguousarray(weights, dtype=float), n, rng.random())
 
 
 def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -139,15 +136,11 @@ def cluster_particles(
             means, covs, pis, resp = _sklearn_em(X, w, means, covs, iterations, reg, rng)
         else:
             means, covs, pis, resp = weighted_em(X, w, means, covs, iterations, reg)
-        labels = resp.argmax(axis=1)
-        mass = np.bincount(labels, weights=w, minlength=len(means))
-        count = np.bincount(labels, minlength=len(means))
-        alive = (mass >= settings.min_mass) & (count >= settings.min_particles)
+        alive, mass, labels = keep_heavy(resp, w, settings.min_mass, settings.min_particles)  # discard light clusters
         changed = not alive.all()
-        means, covs, mass = means[alive], covs[alive], mass[alive]
+        means, covs = means[alive], covs[alive]
         if len(means) == 0:
             return _empty(n)
-        labels = np.where(alive[labels], np.cumsum(alive)[labels] - 1, -1)
         # Merge every pair that is one ball (touching balls are 2R apart and stay two).
         kept, means, mass, labels = merge_one_ball_clusters(means, mass, labels, R, *stacked_kernel_arrays(tuple(cameras)))
         covs = covs[kept]
@@ -176,10 +169,7 @@ def cluster_particles(
     means, covs, pis, _ = weighted_em(X, w, means, covs, 1, reg)
     labels = hard_labels(X_all, means, covs, pis)
     K = len(means)
-    onehot = np.zeros((len(X_all), K))
-    onehot[np.arange(len(X_all)), labels] = w_all
-    masses, out_means, out_covs = weighted_moments(X_all, onehot)
-    counts = np.bincount(labels, minlength=K)
+    masses, out_means, out_covs, counts = label_moments(X_all, w_all, labels, K)
     good = (masses >= settings.min_mass) & (counts >= settings.min_particles)
     remap = np.full(K, -1)
     remap[good] = np.arange(good.sum())

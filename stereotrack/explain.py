@@ -38,7 +38,7 @@ import numpy as np
 from .abduction import Blobs
 from .camera import Camera, triangulate_with_covariance
 from .discs import RayFit, depth_on_ray, union_mismatch
-from .kernels import blob_at
+from .kernels import blob_signature
 from .results import Object3D
 
 
@@ -56,20 +56,8 @@ class ExplainSettings:
     disc_fit_sigma: float = 0.01  # metres: the least depth uncertainty a disc fit claims
 
 
-_NO_LABELS = np.zeros((1, 1), np.int32)
+_NO_LABELS, _NO_LABEL_BLOB = np.zeros((1, 1), np.int32), np.full(1, -1)
 _DEPTH_STEPS = np.linspace(0.0, 1.0, 41)  # the disc fit's candidate depths, spread over its search range
-
-
-def _blob_ids(cam: Camera, blobs: Blobs, uv: np.ndarray, ok: np.ndarray, r_px: np.ndarray) -> np.ndarray:
-    """For each projected position (pixels ``uv``, in front ``ok``): the blob it falls in (or the nearest
-    within one apparent radius), else -1."""
-    if len(blobs) == 0 or len(uv) == 0:
-        return np.full(len(uv), -1)
-    if blobs.labels is None:  # the histogram blob finder: nearest blob only
-        labels, label_blob, use_labels = _NO_LABELS, np.full(1, -1), False
-    else:
-        labels, label_blob, use_labels = blobs.labels, blobs.label_blob, True
-    return blob_at(uv, ok, r_px, cam.width, cam.height, labels, label_blob, blobs.label_scale, use_labels, blobs.centres, blobs.radii)
 
 
 def _merge(objs: Sequence[Object3D]) -> Object3D:
@@ -86,17 +74,24 @@ def _merge(objs: Sequence[Object3D]) -> Object3D:
 
 
 def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarray, np.ndarray]:
-    """Per object and camera: the blob it sees (-1: none) and log(blob radius / expected radius)."""
+    """Per object and camera: the blob it sees (its label there, else the nearest blob whose disc reaches
+    it; -1: none) and log(blob radius / expected radius)."""
     k, c = len(positions), len(cameras)
     ids = np.full((k, c), -1)
     log_ratio = np.full((k, c), np.nan)
+    if k == 0:
+        return ids, log_ratio
+    positions = np.ascontiguousarray(positions, dtype=float)
     for j, (cam, b) in enumerate(zip(cameras, blobs)):
-        uv, front, z = cam.view(positions)
-        r_px = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) * radius / np.where(front, z, 1.0)
-        ids[:, j] = np.where(front, _blob_ids(cam, b, uv, front, r_px), -1)
-        seen = ids[:, j] >= 0
-        if seen.any():
-            log_ratio[seen, j] = np.log(np.maximum(b.radii[ids[seen, j]], 0.5) / r_px[seen])
+        if len(b) == 0:
+            continue
+        if b.labels is None:  # the histogram blob finder: nearest blob only
+            labels, label_blob, use_labels = _NO_LABELS, _NO_LABEL_BLOB, False
+        else:
+            labels, label_blob, use_labels = b.labels, b.label_blob, True
+        ids[:, j], log_ratio[:, j] = blob_signature(
+            positions, *cam._kernel_arrays, radius, cam.width, cam.height, labels, label_blob, b.label_scale, use_labels, b.centres, b.radii
+        )
     return ids, log_ratio
 
 

@@ -98,6 +98,37 @@ def project_points(points, R, t, K, k, tilt):
 
 
 @kernel
+def unproject_pinhole(px, K):
+    """Pixels (N x 2) of a camera without distortion -> normalised coordinates (N x 2)."""
+    out = np.empty((px.shape[0], 2))
+    for i in range(px.shape[0]):
+        out[i, 1] = (px[i, 1] - K[1, 2]) / K[1, 1]
+        out[i, 0] = (px[i, 0] - K[0, 2] - K[0, 1] * out[i, 1]) / K[0, 0]
+    return out
+
+
+@kernel
+def rays_from_normalised(xn, R, t):
+    """Normalised coordinates (N x 2) -> world rays of a camera (x_cam = R X + t): origins (its centre,
+    N x 3) and unit directions (N x 3)."""
+    n = xn.shape[0]
+    origins = np.empty((n, 3))
+    dirs = np.empty((n, 3))
+    for a in range(3):  # centre = -R' t
+        c = -(R[0, a] * t[0] + R[1, a] * t[1] + R[2, a] * t[2])
+        for i in range(n):
+            origins[i, a] = c
+    for i in range(n):
+        x, y = xn[i, 0], xn[i, 1]
+        d0 = R[0, 0] * x + R[1, 0] * y + R[2, 0]
+        d1 = R[0, 1] * x + R[1, 1] * y + R[2, 1]
+        d2 = R[0, 2] * x + R[1, 2] * y + R[2, 2]
+        norm = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        dirs[i, 0], dirs[i, 1], dirs[i, 2] = d0 / norm, d1 / norm, d2 / norm
+    return origins, dirs
+
+
+@kernel
 def triangulate_dlt(xn, P):
     """Linear (DLT) triangulation of M points seen by C cameras: normalised undistorted coordinates
     ``xn`` (C x M x 2) and normalised projection matrices [R | t] ``P`` (C x 3 x 4) -> M x 3.
@@ -240,6 +271,23 @@ def crossing_points(o1, d1, r1, use1, o2, d2, r2, use2, R1, t1, f1, R2, t2, f2, 
 
 
 # --------------------------------------------------------------------------- Particles (likelihood.py, population.py, pipeline.py)
+
+
+@kernel
+def systematic_resample(weights, n, u0):
+    """Systematic resampling: ``n`` indices drawn with probabilities ``weights`` (summing to 1), at
+    the points (u0 + i) / n of the weights' cumulative sum (u0 uniform in [0, 1))."""
+    m = weights.shape[0]
+    out = np.empty(n, np.int64)
+    cdf = np.cumsum(weights)
+    cdf[m - 1] = 1.0
+    j = 0
+    for i in range(n):
+        u = (u0 + i) / n
+        while j < m - 1 and cdf[j] <= u:
+            j += 1
+        out[i] = j
+    return out
 
 
 @kernel
@@ -449,6 +497,44 @@ def hard_labels(X, means, covs, pis):
 
 
 @kernel
+def keep_heavy(resp, w, min_mass, min_count):
+    """Hard-assign every point to its most responsible component and drop the components that end up
+    lighter than ``min_mass`` or with fewer than ``min_count`` points. Returns (kept: K bool, the kept
+    components' masses, labels renumbered to the kept components; -1 for points of dropped ones)."""
+    n, k = resp.shape
+    labels = np.empty(n, np.int64)
+    mass = np.zeros(k)
+    count = np.zeros(k, np.int64)
+    for i in range(n):
+        best = 0
+        for c in range(1, k):
+            if resp[i, c] > resp[i, best]:
+                best = c
+        labels[i] = best
+        mass[best] += w[i]
+        count[best] += 1
+    kept = (mass >= min_mass) & (count >= min_count)
+    index = np.cumsum(kept) - 1
+    for i in range(n):
+        labels[i] = index[labels[i]] if kept[labels[i]] else -1
+    return kept, mass[kept], labels
+
+
+@kernel
+def label_moments(X, w, labels, k):
+    """Weight, weighted mean and covariance and point count of each of ``k`` labelled groups of points
+    (label -1: in none)."""
+    rw = np.zeros((X.shape[0], k))
+    count = np.zeros(k, np.int64)
+    for i in range(X.shape[0]):
+        if labels[i] >= 0:
+            rw[i, labels[i]] = w[i]
+            count[labels[i]] += 1
+    mass, means, covs = weighted_moments(X, rw)
+    return mass, means, covs, count
+
+
+@kernel
 def _claim_mean(X, w, claim):
     """Weight and weighted mean of the claimed points."""
     mass = 0.0
@@ -648,6 +734,24 @@ def blob_at(uv, ok, r_px, width, height, labels, label_blob, scale, use_labels, 
 
 
 @kernel
+def blob_signature(positions, R, t, K, k, tilt, radius, width, height, labels, label_blob, scale, use_labels, centres, radii):
+    """Per ball position, in one camera (its projection arrays, image size): the blob it sees
+    (``blob_at``; -1: none, or behind the camera) and log(blob radius / the radius a ball of
+    ``radius`` has there), NaN where it sees none."""
+    uv, front, z = project_points(positions, R, t, K, k, tilt)
+    f = 0.5 * (K[0, 0] + K[1, 1])
+    r_px = np.empty(positions.shape[0])
+    for i in range(positions.shape[0]):
+        r_px[i] = f * radius / (z[i] if front[i] else 1.0)
+    ids = blob_at(uv, front, r_px, width, height, labels, label_blob, scale, use_labels, centres, radii)
+    log_ratio = np.full(positions.shape[0], np.nan)
+    for i in range(positions.shape[0]):
+        if ids[i] >= 0:
+            log_ratio[i] = math.log(max(radii[ids[i]], 0.5) / r_px[i])
+    return ids, log_ratio
+
+
+@kernel
 def _cells_around_discs(uv, r, scale, off, x0, y0, x1, y1):
     """The window of label cells (x0, y0, x1, y1) grown to hold every disc (centre uv, radius r, pixels)."""
     for i in range(uv.shape[0]):
@@ -843,9 +947,13 @@ def warm_up() -> None:
     means, covs, pis, _ = weighted_em(X, np.ones(3), X[:2].copy(), covs, 1, 1e-6)
     hard_labels(X, means, covs, pis)
     weighted_moments(X, np.ones((3, 2)))
+    keep_heavy(np.ones((3, 2)), np.ones(3), 0.1, 1)
+    label_moments(X, np.ones(3), np.zeros(3, np.int64), 1)
     uv, ok, _ = project_points(X, *camera_arrays)
+    rays_from_normalised(unproject_pinhole(uv, np.eye(3)), np.eye(3), np.zeros(3))
     window_counts(np.zeros((5, 5), np.int32), uv, ok, 3)
     hidden_by_balls(np.zeros(3), X, X[:1].copy(), np.ones(1))
+    systematic_resample(np.full(3, 1 / 3), 5, 0.5)
     camera_likelihood(np.ones(3), X, *camera_arrays, np.zeros((5, 5), np.int32), 3, np.zeros(3), X[:1].copy(), np.ones(1))
     nearest_within(X, X[:1].copy(), 1.0)
     yes = np.ones(3, np.bool_)
@@ -868,6 +976,7 @@ def warm_up() -> None:
     mask_moments((labels > 0).astype(np.uint8), np.array([[0, 0, 2, 2]], np.int64), 2)
     uv = np.ascontiguousarray(X[:, :2])
     blob_at(uv, np.ones(3, np.bool_), np.ones(3), 4, 4, labels, np.array([-1, 0]), 1, True, uv[:1], np.ones(1))
+    blob_signature(X, *camera_arrays, 0.02, 4, 4, labels, np.array([-1, 0]), 1, True, uv[:1].copy(), np.ones(1))
     disc_union_mismatch(labels, np.array([-1, 0]), 0, np.array([1, 1, 3, 3], np.int64), 2, uv, np.ones(3), uv[:1], np.ones(1))
     posterior_depth(np.array([1.0, np.inf]), np.array([1.0, 2.0]), 1.5, 0.1, 10.0)
     ball_union_mismatch(X, X[:1].copy(), 0.02, *camera_arrays, labels, np.array([-1, 0]), 0, np.array([1, 1, 3, 3], np.int64), 2)
