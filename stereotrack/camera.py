@@ -25,12 +25,18 @@ _DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
 
 
+_kernels = None
+
+
 def kernels():
     """The compiled kernels, imported on first use: numba's import and start-up (about a second) is paid
     only by commands that project or triangulate, not by ``--help``."""
-    from . import kernels as module
+    global _kernels
+    if _kernels is None:
+        from . import kernels as module
 
-    return module
+        _kernels = module
+    return _kernels
 
 
 def _tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
