@@ -36,15 +36,17 @@ from __future__ import annotations
 import argparse
 import queue
 import shutil
+import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -213,7 +215,6 @@ def _wait_for_port(host: str, port: int, proc: subprocess.Popen, seconds: float)
 def _die_with_parent() -> None:
     """In the child before exec: get SIGTERM when the parent dies, even by SIGKILL (Linux only)."""
     import ctypes
-    import signal
 
     try:
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
@@ -334,6 +335,25 @@ class Pending:
     jpegs: list  # per camera, the encoded image (uint8 array)
     particles: list  # per target: (target, positions, labels, abductive, index of its first object)
     trails: list  # per confirmed track with a trail: (its index in tracks, times, points)
+
+
+@contextmanager
+def _sigint_held() -> Iterator[None]:
+    """Ctrl-C takes effect when the block ends, not inside it: a KeyboardInterrupt raised while a queue
+    operation holds the queue's lock can leave the lock held, and ``close`` would then wait for ever."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and callable(previous):
+            previous(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt here
+        elif caught and previous == signal.SIG_DFL:
+            raise KeyboardInterrupt
 
 
 class RerunSink:
@@ -510,7 +530,8 @@ class RerunSink:
             if log and self._queue.qsize() > 0:  # the logging thread is still busy: only the trails follow this frame
                 item = (result, item[1], False, None)
             try:
-                self._queue.put_nowait(item)
+                with _sigint_held():
+                    self._queue.put_nowait(item)
             except queue.Full:  # far behind: not even the trails get this frame
                 item = None
             if log and (item is None or not item[2]):
@@ -518,7 +539,8 @@ class RerunSink:
             return
         while True:
             try:
-                self._queue.put(item, timeout=0.5)
+                with _sigint_held():
+                    self._queue.put(item, timeout=0.5)
                 return
             except queue.Full:
                 self._check_worker()
@@ -864,7 +886,8 @@ class RerunSink:
         self._closed = True
         interrupted = sys.exc_info()[0] is not None
         try:
-            self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
+            with _sigint_held():
+                self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
             self._worker.join()
             self.rec.flush()
             if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:

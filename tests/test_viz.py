@@ -395,7 +395,8 @@ def _cli(*args, **kw):
 @pytest.fixture(scope="module")
 def small_recording(tmp_path_factory):
     folder = tmp_path_factory.mktemp("rec") / "pendulum"
-    out = _cli("synth", "pendulum4", "--frames", "40", "--width", "320", "--height", "240", "--out", str(folder), "--no-progress")
+    # 10 fps: played at its recorded pace (--realtime) it lasts 4 s, so even a loaded machine interrupts it midway.
+    out = _cli("synth", "pendulum4", "--frames", "40", "--fps", "10", "--width", "320", "--height", "240", "--out", str(folder), "--no-progress")
     assert out.returncode == 0, out.stderr
     return folder
 
@@ -579,3 +580,18 @@ def test_images_at_another_scale_cover_the_cameras_pixels(tmp_path):
     assert img.shape == (168, 224, 3)  # 0.7 x 240, 0.7 x 320
     sx, sy, sz = latest(rows["world/cameras/cam0/image"], "Transform3D:scale", 0)[0]
     assert (sx * 224, sy * 168, sz) == pytest.approx((W, H, 1.0))  # the image spans the camera's W x H pixels
+
+
+def test_ctrl_c_inside_a_queue_operation_waits_for_its_end():
+    """A KeyboardInterrupt raised while a queue holds its lock could leave the lock held, and closing
+    the sink would then hang: the sink holds Ctrl-C back until the operation is over."""
+    from stereotrack.viz import _sigint_held
+
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with _sigint_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the signal has arrived: without the hold it would interrupt the sleep
+            done.append(True)
+    assert done == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is back
