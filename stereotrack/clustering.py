@@ -4,8 +4,9 @@ EM runs on the particles' weights directly (a Gaussian mixture whose
 responsibilities are multiplied by each particle's weight). scikit-learn's
 GaussianMixture takes no sample weights, so using it means resampling the
 particles first; it is kept as ``em: sklearn`` for comparison, and the
-weighted numpy EM is the default (exact for weights and ~20x faster here:
-see BENCHMARKS.md).
+weighted EM (``kernels.weighted_em``; the setting's value is still called
+``numpy``) is the default: exact for weights and many times faster (see
+BENCHMARKS.md).
 
 ISODATA rules, all driven by the ball radius R:
 - seed: last frame's objects (warm start), plus the heaviest particle farther

@@ -51,7 +51,7 @@ class TrackerSettings:
     cluster_min_mass: float = 0.01  # clusters with less weight are dropped
     cluster_min_particles: int = 8  # clusters with fewer particles are dropped
     max_objects: int = 12  # at most this many objects per target
-    em: str = "numpy"  # "numpy" (weighted EM, default) or "sklearn" (GaussianMixture on resampled particles; slower)
+    em: str = "numpy"  # "numpy" (our weighted EM, compiled; default) or "sklearn" (GaussianMixture on resampled particles; slower)
     particle_velocity: bool = True  # particles near a track drift with its velocity (else the paper's pure random walk)
     exclusion: bool = True  # a particle following one track dies inside another tracked ball (seed 000's blocking)
     occlusion: bool = True  # a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it
