@@ -36,17 +36,15 @@ from __future__ import annotations
 import argparse
 import queue
 import shutil
-import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
 from collections import deque
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -215,6 +213,7 @@ def _wait_for_port(host: str, port: int, proc: subprocess.Popen, seconds: float)
 def _die_with_parent() -> None:
     """In the child before exec: get SIGTERM when the parent dies, even by SIGKILL (Linux only)."""
     import ctypes
+    import signal
 
     try:
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
@@ -335,25 +334,6 @@ class Pending:
     jpegs: list  # per camera, the encoded image (uint8 array)
     particles: list  # per target: (target, positions, labels, abductive, index of its first object)
     trails: list  # per confirmed track with a trail: (its index in tracks, times, points)
-
-
-@contextmanager
-def _sigint_held() -> Iterator[None]:
-    """Ctrl-C takes effect when the block ends, not inside it: a KeyboardInterrupt raised while a queue
-    operation holds the queue's lock can leave the lock held, and ``close`` would then wait for ever."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught and callable(previous):
-            previous(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt here
-        elif caught and previous == signal.SIG_DFL:
-            raise KeyboardInterrupt
 
 
 class RerunSink:
@@ -530,8 +510,7 @@ class RerunSink:
             if log and self._queue.qsize() > 0:  # the logging thread is still busy: only the trails follow this frame
                 item = (result, item[1], False, None)
             try:
-                with _sigint_held():
-                    self._queue.put_nowait(item)
+                self._queue.put_nowait(item)
             except queue.Full:  # far behind: not even the trails get this frame
                 item = None
             if log and (item is None or not item[2]):
@@ -539,8 +518,7 @@ class RerunSink:
             return
         while True:
             try:
-                with _sigint_held():
-                    self._queue.put(item, timeout=0.5)
+                self._queue.put(item, timeout=0.5)
                 return
             except queue.Full:
                 self._check_worker()
@@ -886,8 +864,7 @@ class RerunSink:
         self._closed = True
         interrupted = sys.exc_info()[0] is not None
         try:
-            with _sigint_held():
-                self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
+            self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
             self._worker.join()
             self.rec.flush()
             if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:

@@ -307,6 +307,12 @@ def test_flags_and_no_viewer_means_no_rerun(tmp_path):
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
 
 
+def _ctrl_c_enabled() -> None:
+    """In a child about to run: Ctrl-C (SIGINT) at its default, even when this test run inherited it
+    ignored (a job started in the background by a non-interactive shell ignores SIGINT)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 SCRIPT = textwrap.dedent(
     """
     import sys
@@ -335,7 +341,7 @@ def test_ctrl_c_leaves_a_readable_rrd(tmp_path):
     rrd = tmp_path / "cut.rrd"
     script = tmp_path / "run.py"
     script.write_text(SCRIPT.format(tests=str(Path(__file__).parent), rrd=str(rrd)))
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled)
     try:
         for line in proc.stdout:
             if line.strip() == "5":
@@ -428,7 +434,7 @@ def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path
     rrd = tmp_path / "cut.rrd"
     proc = subprocess.Popen(
         [sys.executable, "-m", "stereotrack", "track", str(small_recording), "--out", str(tmp_path / "t.csv"), "--rrd", str(rrd), "--realtime"],
-        stderr=subprocess.PIPE, text=True,
+        stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled,
     )
     try:
         for line in proc.stderr:  # non-terminal progress: a line every 10 %
@@ -580,18 +586,3 @@ def test_images_at_another_scale_cover_the_cameras_pixels(tmp_path):
     assert img.shape == (168, 224, 3)  # 0.7 x 240, 0.7 x 320
     sx, sy, sz = latest(rows["world/cameras/cam0/image"], "Transform3D:scale", 0)[0]
     assert (sx * 224, sy * 168, sz) == pytest.approx((W, H, 1.0))  # the image spans the camera's W x H pixels
-
-
-def test_ctrl_c_inside_a_queue_operation_waits_for_its_end():
-    """A KeyboardInterrupt raised while a queue holds its lock could leave the lock held, and closing
-    the sink would then hang: the sink holds Ctrl-C back until the operation is over."""
-    from stereotrack.viz import _sigint_held
-
-    done = []
-    with pytest.raises(KeyboardInterrupt):
-        with _sigint_held():
-            os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(0.05)  # the signal has arrived: without the hold it would interrupt the sleep
-            done.append(True)
-    assert done == [True]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is back
