@@ -132,15 +132,12 @@ class Tracker:
             if pop.state is None:
                 continue
             mine = [tr for tr in tracks if tr.target == t.name]
-            vel = np.zeros_like(pop.state.positions)
-            owners = np.full(len(vel), -1)
-            if mine:
-                centres = np.array([tr.position for tr in mine])
-                nearest = nearest_within(pop.state.positions, centres, np.sqrt((3 * t.radius) ** 2 + 0.0025))
-                close = nearest >= 0
-                owners[close] = np.array([tr.track_id for tr in mine])[nearest[close]]
-                if self.config.tracker.particle_velocity:
-                    vel[close] = np.array([tr.velocity for tr in mine])[nearest[close]]
+            centres = np.array([tr.position for tr in mine]).reshape(-1, 3)
+            nearest = nearest_within(pop.state.positions, centres, np.sqrt((3 * t.radius) ** 2 + 0.0025))
+            # Looked up with a last row for "no track" (nearest = -1): one gather per array.
+            owners = np.array([tr.track_id for tr in mine] + [-1])[nearest]
+            speeds = [tr.velocity for tr in mine] if self.config.tracker.particle_velocity else [np.zeros(3)] * len(mine)
+            vel = np.array(speeds + [np.zeros(3)]).reshape(-1, 3)[nearest]
             pop.follow_tracks(vel, owners)
 
     def _rays(self, blobs: dict[str, list[Blobs]], rays) -> tuple[Rays, ...]:

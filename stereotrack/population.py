@@ -160,8 +160,10 @@ class Population:
             if lik[part].size:
                 weights[part] = share * lik[part] / total if total > 0 else share / lik[part].size
         weights /= weights.sum()
-        velocities_out = np.vstack([seq_vel, np.zeros((n_abd, 3))])
-        abductive = np.r_[np.zeros(n_seq, bool), np.ones(n_abd, bool)]
+        velocities_out = np.zeros((len(positions), 3))
+        velocities_out[:n_seq] = seq_vel
+        abductive = np.zeros(len(positions), bool)
+        abductive[n_seq:] = True
         self.state = PopulationState(positions, velocities_out, weights, lik, abductive)
         return self.state
 
