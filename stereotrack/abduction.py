@@ -113,7 +113,7 @@ def depth_range_from_size(camera: Camera, radius_px: np.ndarray, ball_radius: fl
     lower bound of the size is trusted loosely (``slack`` either way).
     Blobs of unknown size (NaN) keep [d_min, d_max].
     """
-    f = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    f = camera.focal_px
     known = radius_px > 0  # NaN is not
     z = f * ball_radius / np.where(known, radius_px, 1.0)
     near = np.where(known, np.clip(z / slack, d_min, d_max), d_min)
@@ -161,11 +161,10 @@ def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, ski
         rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
     rays = [r if len(b) else None for r, b in zip(rays, blobs)]
     use = [np.ones(len(b), bool) if skip is None else ~np.asarray(skip[j], bool) for j, b in enumerate(blobs)]
-    f = [0.5 * (cam.K[0, 0] + cam.K[1, 1]) for cam in cameras]
     out = [
         crossing_points(
             *rays[j], blobs[j].radii, use[j], *rays[k], blobs[k].radii, use[k],
-            cameras[j].R, cameras[j].t, f[j], cameras[k].R, cameras[k].t, f[k], radius, d_min, d_max, slack,
+            cameras[j].R, cameras[j].t, cameras[j].focal_px, cameras[k].R, cameras[k].t, cameras[k].focal_px, radius, d_min, d_max, slack,
         )
         for j in range(len(rays)) for k in range(j + 1, len(rays)) if rays[j] is not None and rays[k] is not None
     ]

@@ -69,6 +69,11 @@ class Camera:
         return int(self.image_size[1])
 
     @property
+    def focal_px(self) -> float:
+        """Mean focal length in pixels: a ball of radius R at depth Z looks ``focal_px * R / Z`` pixels wide."""
+        return 0.5 * float(self.K[0, 0] + self.K[1, 1])
+
+    @property
     def centre(self) -> np.ndarray:
         """Optical centre in world coordinates."""
         return -self.R.T @ self.t

@@ -80,7 +80,7 @@ def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, n
     out = []
     for cam in cameras:
         uv, ok, z = cam.view(X)
-        f_over_z = 0.5 * (cam.K[0, 0] + cam.K[1, 1]) / np.maximum(z, 1e-6)
+        f_over_z = cam.focal_px / np.maximum(z, 1e-6)
         out.append((uv, ok, f_over_z))
     return out
 

@@ -208,11 +208,10 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
         return out
     centres, radii = occluders
     for j, cam in enumerate(cameras):
-        f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])
         uv, front, z = cam.view(positions)
         ouv, ofront, oz = cam.view(centres)
-        r = f * radius / np.maximum(z, 1e-6)
-        orad = f * radii / np.maximum(oz, 1e-6)
+        r = cam.focal_px * radius / np.maximum(z, 1e-6)
+        orad = cam.focal_px * radii / np.maximum(oz, 1e-6)
         apart = np.linalg.norm(uv[:, None] - ouv[None], axis=2)
         out[:, j] = (front[:, None] & ofront[None] & (oz[None] < z[:, None]) & (apart < r[:, None] + orad[None])).any(axis=1)
     return out
