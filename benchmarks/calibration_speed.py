@@ -40,8 +40,24 @@ def rig() -> Rig:
 
 def time_command(board_yaml: Path, sources: list[str], out: Path) -> float:
     start = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "stereotrack", "calibrate", "--board", str(board_yaml), "--images", *sources,
-                        "--out", str(out), "--no-progress"], capture_output=True, text=True, cwd=ROOT)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "stereotrack",
+            "calibrate",
+            "--board",
+            str(board_yaml),
+            "--images",
+            *sources,
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     elapsed = time.perf_counter() - start
     if r.returncode != 0:
         raise SystemExit(r.stderr)

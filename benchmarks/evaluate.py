@@ -25,7 +25,7 @@ import json
 import platform
 import re
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,7 +84,9 @@ def track(recording: Path, method: str, out_csv: Path) -> dict:
     seconds = time.perf_counter() - start
     log = err.getvalue()
     if code != 0:
-        raise RuntimeError(f"stereotrack track --method {method} failed (exit {code}): {log.strip().splitlines()[-1] if log.strip() else ''}")
+        raise RuntimeError(
+            f"stereotrack track --method {method} failed (exit {code}): {log.strip().splitlines()[-1] if log.strip() else ''}"
+        )
     frames = re.search(r"tracked (\d+) frames", log)
     step = re.search(r"tracker step median ([\d.]+) ms", log)
     return {
@@ -122,7 +124,7 @@ def report(results: dict, args) -> str:
         "Produced by `.venv/bin/python benchmarks/evaluate.py"
         + (f" --frames {args.frames}" if args.frames else "")
         + (f" --scenes {' '.join(args.scenes)}" if args.scenes != [s[0] for s in SCENES] else "")
-        + f"` on {datetime.now(timezone.utc):%Y-%m-%d} ({platform.machine()}, shared 2-core machine).",
+        + f"` on {datetime.now(UTC):%Y-%m-%d} ({platform.machine()}, shared 2-core machine).",
         "Each scene is a synthetic preset (`stereotrack synth`) rendered once; both methods run through",
         "`stereotrack track --method particles|baseline` with the recording's own targets and default settings,",
         "and are scored like `stereotrack eval` (CLEAR MOT via py-motmetrics, a track matches a true ball within 0.1 m).",
@@ -151,13 +153,17 @@ def report(results: dict, args) -> str:
         r = results.get(label, {}).get("particles")
         if r is None or "error" in r:
             continue
-        checks = ", ".join(f"{k} {r['eval'][k]:.3f}".rstrip("0").rstrip(".") + " " + _check(r["eval"][k], rule) for k, rule in rules.items())
+        checks = ", ".join(
+            f"{k} {r['eval'][k]:.3f}".rstrip("0").rstrip(".") + " " + _check(r["eval"][k], rule) for k, rule in rules.items()
+        )
         lines.append(f"- {label} (particles): {checks}")
     for label in BEAT_BASELINE:
         res = results.get(label, {})
         if all("eval" in res.get(m, {}) for m in METHODS):
             p, b = res["particles"]["eval"]["mota"], res["baseline"]["eval"]["mota"]
-            lines.append(f"- {label}: particles MOTA {p:.3f} vs baseline {b:.3f}: {'particles ahead' if p > b else 'baseline ahead or equal'}")
+            lines.append(
+                f"- {label}: particles MOTA {p:.3f} vs baseline {b:.3f}: {'particles ahead' if p > b else 'baseline ahead or equal'}"
+            )
     if args.frames:
         lines += ["", f"Note: every scene was cut to its first {args.frames} frames; the targets are defined on whole scenes."]
     return "\n".join(lines) + "\n"

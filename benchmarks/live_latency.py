@@ -42,10 +42,14 @@ def main() -> None:
     lat = np.asarray(latency.latencies) * 1000
     third = max(1, len(lat) // 3)
     stats = source.stats
-    print(f"live {a.preset} {a.width}x{a.height} @ {a.fps:g} fps, {a.seconds:g} s: tracked {summary.frames} frames, "
-          f"tracker {summary.fps:.1f} frames/s (step median {np.median(latency.step_ms):.1f} ms)")
-    print(f"grab-to-estimate latency: median {np.median(lat):.1f} ms, 95% {np.percentile(lat, 95):.1f} ms, max {lat.max():.1f} ms; "
-          f"median first third {np.median(lat[:third]):.1f} ms, last third {np.median(lat[-third:]):.1f} ms")
+    print(
+        f"live {a.preset} {a.width}x{a.height} @ {a.fps:g} fps, {a.seconds:g} s: tracked {summary.frames} frames, "
+        f"tracker {summary.fps:.1f} frames/s (step median {np.median(latency.step_ms):.1f} ms)"
+    )
+    print(
+        f"grab-to-estimate latency: median {np.median(lat):.1f} ms, 95% {np.percentile(lat, 95):.1f} ms, max {lat.max():.1f} ms; "
+        f"median first third {np.median(lat[:third]):.1f} ms, last third {np.median(lat[-third:]):.1f} ms"
+    )
     print(f"cameras: {stats.line()}")
 
 

@@ -30,7 +30,7 @@ import platform
 import subprocess
 import time
 from dataclasses import dataclass, replace
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -251,7 +251,9 @@ class ErrorRow:
         return 1000.0 / self.step_ms
 
 
-def depth_errors(scene: RenderedScene, alpha: float, refine: bool, n_frames: int = 300, settle: int = 200, particles: int = 1000) -> ErrorRow:
+def depth_errors(
+    scene: RenderedScene, alpha: float, refine: bool, n_frames: int = 300, settle: int = 200, particles: int = 1000
+) -> ErrorRow:
     run = run_tracker(scene, particles, alpha, n_frames, refine=refine, warmup=WARMUP_FRAMES, time_floor=True)
     err = run.track_error[settle:]
     ok = err < ERROR_GATE
@@ -386,7 +388,16 @@ def reproduce(quick: bool = False, progress: bool = True) -> Reproduction:
         del scene
     command = ".venv/bin/python benchmarks/paper_reproduction.py" + (" --quick" if quick else "")
     return Reproduction(
-        share_depths, tuple(table2), error_depths, tuple(table3), tuple(appear), time.perf_counter() - start, command, revision, (n_frames, settle), tuple(uniform)
+        share_depths,
+        tuple(table2),
+        error_depths,
+        tuple(table3),
+        tuple(appear),
+        time.perf_counter() - start,
+        command,
+        revision,
+        (n_frames, settle),
+        tuple(uniform),
     )
 
 
@@ -394,7 +405,9 @@ def git_revision() -> str:
     """The commit the package was measured at, marked when stereotrack/ had uncommitted changes."""
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "stereotrack"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "stereotrack"], cwd=ROOT, capture_output=True, text=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return ""
     changed = sorted({Path(line[3:]).name for line in dirty.splitlines()})
@@ -416,7 +429,8 @@ def share_table(rows: list[ShareRow], depths: tuple[float, ...]) -> list[str]:
     n = rows[0].particles
     near, far = (f"{d:.1f} m" for d in depths)
     out = [
-        f"| alpha | paper obj 1 | paper obj 2 | paper total | cluster {near} | cluster {far} | cluster total | 2 radii {near} | 2 radii {far} | 2 radii total | weight {near} | weight {far} |",
+        f"| alpha | paper obj 1 | paper obj 2 | paper total | cluster {near} | cluster {far} | cluster "
+        f"total | 2 radii {near} | 2 radii {far} | 2 radii total | weight {near} | weight {far} |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -458,7 +472,8 @@ def appearance_table(rows: list[AppearanceRow]) -> list[str]:
     n_balls = len(rows[0].frames_to_track)
     head = " | ".join(f"ball {b + 1}" for b in range(n_balls))
     out = [
-        f"| balls appear | alpha | {head} | worst | mean error (cm) | frames lost after found | share in cluster, mean (lowest), % | lowest share within 2 radii, % |",
+        f"| balls appear | alpha | {head} | worst | mean error (cm) | frames lost after "
+        "found | share in cluster, mean (lowest), % | lowest share within 2 radii, % |",
         "|---|---|" + "---|" * n_balls + "---|---|---|---|---|",
     ]
     for r in rows:
@@ -493,7 +508,11 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
                 f"alpha = 0, N = {n}: pure CONDENSATION {verdict}: the ball at {depth[kept]} keeps {_pct(r.cluster[kept])} of the particles "
                 f"in its cluster, the ball at {depth[other]} {_pct(r.cluster[other])} ({_pct(r.count[other])} within 2 radii; "
                 f"paper: {PAPER_TABLE_II[n][0.0][0]:.0f}% / 0%)"
-                + (f"; from frame {r.collapse_frame} on (alpha = 0 from frame {WARMUP_FRAMES}) one ball keeps under 5% in every frame." if r.collapse_frame >= 0 else ".")
+                + (
+                    f"; from frame {r.collapse_frame} on (alpha = 0 from frame {WARMUP_FRAMES}) one ball keeps under 5% in every frame."
+                    if r.collapse_frame >= 0
+                    else "."
+                )
             )
         kept_rows = [r for (m, a), r in t2.items() if m == n and a >= 0.1]
         if kept_rows:
@@ -520,7 +539,9 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
     pairs = [(t2[(1000, a)], t2[(2000, a)]) for (m, a) in t2 if m == 1000 and (2000, a) in t2 and a > 0]
     if pairs:
         diff = max(np.abs(p.cluster - q.cluster).max() for p, q in pairs)
-        out["share"].append(f"N = 1000 against N = 2000 (alpha > 0): the per-ball cluster shares differ by at most {100 * diff:.1f} points.")
+        out["share"].append(
+            f"N = 1000 against N = 2000 (alpha > 0): the per-ball cluster shares differ by at most {100 * diff:.1f} points."
+        )
     if rep.uniform_depth:
         ratios = [r.cluster.max() / max(r.cluster.min(), 1e-9) for r in rep.uniform_depth]
         lo_a, hi_a = rep.uniform_depth[0], rep.uniform_depth[-1]
@@ -545,7 +566,11 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
         out["error"].append(
             f"Spread (standard deviation) of the particle-mean error at {d3[1]}: "
             + ", ".join(f"{_cm(r.std_error[1])} cm at alpha = {r.alpha:g}" for r in raw)
-            + (" (grows with alpha, as the paper observed)." if raw[-1].std_error[1] > raw[0].std_error[1] else " (does not grow with alpha, unlike the paper).")
+            + (
+                " (grows with alpha, as the paper observed)."
+                if raw[-1].std_error[1] > raw[0].std_error[1]
+                else " (does not grow with alpha, unlike the paper)."
+            )
         )
     for f in (True, False):
         if (0.0, f) in t3:
@@ -575,14 +600,17 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
         for r in pos:
             shown = r.first_visible >= 0
             lags = r.frames_to_track[shown]
-            slow = [f"ball {b + 1} ({r.frames_to_track[b]} frames{', blob merged with another ball' if r.merged_while_found[b] else ''})"
-                    for b in np.flatnonzero(shown & (r.frames_to_track > 4))]
+            slow = [
+                f"ball {b + 1} ({r.frames_to_track[b]} frames{', blob merged with another ball' if r.merged_while_found[b] else ''})"
+                for b in np.flatnonzero(shown & (r.frames_to_track > 4))
+            ]
             if (lags < 0).any():
                 head = f"{int((lags < 0).sum())} of {int(shown.sum())} balls never tracked"
             else:
                 head = f"every ball tracked {int(lags.min())} to {int(lags.max())} frames after it shows in both views"
             out["appear"].append(
-                f"{label}, alpha = {r.alpha:g}: {head}" + (f"; slower than 4 frames: {', '.join(slow)}" if slow else "")
+                f"{label}, alpha = {r.alpha:g}: {head}"
+                + (f"; slower than 4 frames: {', '.join(slow)}" if slow else "")
                 + f"; mean error {_cm(r.mean_error)} cm; {_pct(r.lost_share)} of ball-frames lost after found."
             )
         for r in (r for r in rows if r.alpha == 0):
@@ -597,13 +625,18 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
         ok = len(clear_lags) > 0 and (clear_lags >= 0).all() and clear_lags.max() <= 10
         text = f"New balls are found as soon as they appear, thanks to the abductive proposal: **{'holds' if ok else 'does not hold'}**. "
         if len(clear_lags) and (clear_lags >= 0).all():
-            text += f"With alpha > 0 a ball whose blob is clear of the others is tracked {int(clear_lags.min())} to {int(clear_lags.max())} frames after it shows in both views"
+            text += (
+                "With alpha > 0 a ball whose blob is clear of the others is tracked "
+                f"{int(clear_lags.min())} to {int(clear_lags.max())} frames after it shows in both views"
+            )
         else:
             text += "Some ball with a clear blob is never tracked with some alpha > 0"
         if len(merged_lags):
             worst_m = "never" if (merged_lags < 0).any() else f"{int(merged_lags.max())} frames"
-            text += (f"; a ball that appears with its blob touching another ball's in a view (marked `*`) takes up to {worst_m}, "
-                     "since the merged blob's ray passes between the two balls and its size no longer tells the depth")
+            text += (
+                f"; a ball that appears with its blob touching another ball's in a view (marked `*`) takes up to {worst_m}, "
+                "since the merged blob's ray passes between the two balls and its size no longer tells the depth"
+            )
         all_lags = np.concatenate([clear_lags, merged_lags])
         meets = (all_lags >= 0).all() and all_lags.max() <= 10
         text += f". The issue's target (every ball within 10 frames) is {'met' if meets else 'NOT met'} in every run with alpha > 0."
@@ -618,17 +651,31 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
             spread = max(per_alpha.values()) - min(per_alpha.values())
             out["claims"].append(
                 f"The response time is about the same for any alpha away from 0: **{'holds' if spread <= 2 else 'does not hold'}** "
-                f"(median frames to track, worse of the two runs: " + ", ".join(f"{v:g} at alpha = {a:g}" for a, v in sorted(per_alpha.items())) + ")."
+                f"(median frames to track, worse of the two runs: "
+                + ", ".join(f"{v:g} at alpha = {a:g}" for a, v in sorted(per_alpha.items()))
+                + ")."
             )
-        vanished = [(r.alpha, "all at once" if r.all_at_once else "one per second", b + 1) for r in pos for b, m in enumerate(r.min_near) if np.isfinite(m) and m == 0]
+        vanished = [
+            (r.alpha, "all at once" if r.all_at_once else "one per second", b + 1)
+            for r in pos
+            for b, m in enumerate(r.min_near)
+            if np.isfinite(m) and m == 0
+        ]
         empty = sum(int(np.sum(r.min_share == 0)) for r in pos)
         out["claims"].append(
             "A found ball's particles never vanish (Figs. 9, 10): "
-            + ("**holds**: every found ball keeps particles within 2 radii in every frame in which its blob is clear of the others"
-               if not vanished else "**not always**: no particle within 2 radii in some clear frame for "
-               + ", ".join(f"ball {b} at alpha = {a:g} ({w})" for a, w, b in vanished))
-            + (f". The clustering did leave a found ball without a cluster of its own in some clear frame ({empty} ball-runs, lowest "
-               "'share in cluster' 0), e.g. just after its blob separated from another's." if empty else ".")
+            + (
+                "**holds**: every found ball keeps particles within 2 radii in every frame in which its blob is clear of the others"
+                if not vanished
+                else "**not always**: no particle within 2 radii in some clear frame for "
+                + ", ".join(f"ball {b} at alpha = {a:g} ({w})" for a, w, b in vanished)
+            )
+            + (
+                f". The clustering did leave a found ball without a cluster of its own in some clear frame ({empty} ball-runs, lowest "
+                "'share in cluster' 0), e.g. just after its blob separated from another's."
+                if empty
+                else "."
+            )
         )
     if zero:
         found = [int((r.frames_to_track >= 0).sum()) for r in zero]
@@ -650,14 +697,15 @@ def findings(rep: Reproduction) -> dict[str, list[str]]:
 
 def write_report(rep: Reproduction, path: Path) -> None:
     f = findings(rep)
-    when = datetime.now(timezone.utc).strftime("%Y-%m-%d")
+    when = datetime.now(UTC).strftime("%Y-%m-%d")
     t2_by_n = {n: [r for r in rep.table2 if r.particles == n] for n in (1000, 2000)}
     total, settle = rep.share_frames
     lines = [
         "# Reproducing the paper's experiments on rendered scenes",
         "",
         f"Generated by `{rep.command}` in {rep.seconds / 60:.1f} min on {platform.machine()} with {os.cpu_count()} cores shared with other "
-        f"jobs ({when}, Python {platform.python_version()}{', commit ' + rep.revision if rep.revision else ''}). Scene and tracker seeds are fixed (scene seed 0, `tracker.seed: 0`), so the "
+        f"jobs ({when}, Python {platform.python_version()}{', commit ' + rep.revision if rep.revision else ''}). "
+        "Scene and tracker seeds are fixed (scene seed 0, `tracker.seed: 0`), so the "
         "particle and error figures come out the same on every run; the timings vary with the machine's load. "
         "`--report-only` rewrites this page from the kept figures (`out/paper-reproduction.pkl`).",
         "",

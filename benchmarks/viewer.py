@@ -179,11 +179,15 @@ def rerun_threads_ms(pairs, rig, config, truth, settings: VizSettings, rrd: Path
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=90)
-    ap.add_argument("--preset", default="pendulum4", help="synthetic scene (default pendulum4; static2 tracks faster, clutter has noisy images)")
+    ap.add_argument(
+        "--preset", default="pendulum4", help="synthetic scene (default pendulum4; static2 tracks faster, clutter has noisy images)"
+    )
     ap.add_argument("--repeats", type=int, default=6)
     ap.add_argument("--every", type=int, default=VizSettings.every, help="viewer decimation (default: the default setting)")
     ap.add_argument("--no-images", action="store_true", help="do not log camera images")
-    ap.add_argument("--image-scale", type=float, default=VizSettings.image_scale, help="size the images are logged at (default: the default setting)")
+    ap.add_argument(
+        "--image-scale", type=float, default=VizSettings.image_scale, help="size the images are logged at (default: the default setting)"
+    )
     args = ap.parse_args()
     settings = VizSettings(every=args.every, images=not args.no_images, image_scale=args.image_scale)
 
@@ -202,7 +206,9 @@ def main() -> None:
                 sinks = []
                 if mode == "rerun":
                     sinks = [TimedSink(RerunSink(rec.rig, config, VizOutputs(rrd=rrd), settings, truth=truth))]
-                start = time.perf_counter()  # opening the sink (importing rerun, once per run) is not counted; closing it (flush + footer) is
+                start = (
+                    time.perf_counter()
+                )  # opening the sink (importing rerun, once per run) is not counted; closing it (flush + footer) is
                 run_pipeline(pairs, tracker, sinks, progress=False)
                 times[mode].append(time.perf_counter() - start)
                 if sinks:
@@ -210,13 +216,22 @@ def main() -> None:
         size_mb = rrd.stat().st_size / 1e6
         fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
         drop = 100 * (1 - fps["rerun"] / fps["plain"])
-        print(f"{args.preset}: {len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer every {args.every} frame(s), images {'off' if args.no_images else f'at {args.image_scale:g} x their size'}")
+        print(
+            f"{args.preset}: {len(pairs)} frame pairs 640x480, 2 cameras, {args.repeats} alternating runs each (median); viewer "
+            f"every {args.every} frame(s), images {'off' if args.no_images else f'at {args.image_scale:g} x their size'}"
+        )
         print(f"tracker alone:        {fps['plain']:6.1f} frames/s")
         print(f"tracker + rerun .rrd: {fps['rerun']:6.1f} frames/s  (drop {drop:.1f} %, target <= 25 %)")
-        print(f"wall time in the sink's write + close, on the tracker's thread: {statistics.median(sink_ms):.2f} ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)")
+        print(
+            f"wall time in the sink's write + close, on the tracker's thread: {statistics.median(sink_ms):.2f} "
+            f"ms per frame (tracker alone: {1000 / fps['plain']:.1f} ms per frame)"
+        )
         print(f".rrd size: {size_mb:.1f} MB ({1000 * size_mb / len(pairs):.0f} kB per frame)")
         breakdown(pairs, rec.rig, config, truth, settings, Path(tmp) / "parts.rrd")
-        print(f"  in other threads (rerun's: chunks encoded, file written): {rerun_threads_ms(pairs, rec.rig, config, truth, settings, Path(tmp) / 'threads.rrd'):5.2f}")
+        print(
+            "  in other threads (rerun's: chunks encoded, file written): "
+            f"{rerun_threads_ms(pairs, rec.rig, config, truth, settings, Path(tmp) / 'threads.rrd'):5.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -72,9 +72,23 @@ def main() -> int:
     workdir.mkdir(parents=True, exist_ok=True)
     grpc_port, web_port = free_port(), free_port()
     demo = subprocess.Popen(
-        [sys.executable, "-m", "stereotrack", "demo", "--serve", "--serve-port", str(grpc_port), "--web-port", str(web_port),
-         "--rrd", "out/demo/demo.rrd", "--quiet"],
-        cwd=workdir, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "stereotrack",
+            "demo",
+            "--serve",
+            "--serve-port",
+            str(grpc_port),
+            "--web-port",
+            str(web_port),
+            "--rrd",
+            "out/demo/demo.rrd",
+            "--quiet",
+        ],
+        cwd=workdir,
+        stderr=subprocess.PIPE,
+        text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # Ctrl-C works even when started from a background job
     )
     try:
@@ -90,11 +104,22 @@ def main() -> int:
         server, port = wrapper_server(url, args.wait)
         profile = tempfile.mkdtemp(prefix="chromium-")
         cmd = [
-            "chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync",
-            "--enable-unsafe-swiftshader", "--use-angle=swiftshader",  # software WebGL2: rerun's wgpu falls back to GL
-            f"--user-data-dir={profile}", f"--screenshot={Path(args.out).resolve()}", f"--window-size={args.size}",
-            "--virtual-time-budget=5000", f"http://127.0.0.1:{port}/",
+            "chromium",
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-unsafe-swiftshader",
+            "--use-angle=swiftshader",  # software WebGL2: rerun's wgpu falls back to GL
+            f"--user-data-dir={profile}",
+            f"--screenshot={Path(args.out).resolve()}",
+            f"--window-size={args.size}",
+            "--virtual-time-budget=5000",
+            f"http://127.0.0.1:{port}/",
         ]
         shot = subprocess.run(cmd, capture_output=True, text=True, timeout=args.wait + 600)
         server.shutdown()

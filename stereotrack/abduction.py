@@ -105,7 +105,9 @@ def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6) 
     raise ValueError(f"unknown blob method {method!r}")
 
 
-def depth_range_from_size(camera: Camera, radius_px: np.ndarray, ball_radius: float, d_min: float, d_max: float, slack: float = 1.6) -> tuple[np.ndarray, np.ndarray]:
+def depth_range_from_size(
+    camera: Camera, radius_px: np.ndarray, ball_radius: float, d_min: float, d_max: float, slack: float = 1.6
+) -> tuple[np.ndarray, np.ndarray]:
     """Distance range along each blob's ray implied by the ball's apparent size.
 
     A ball of radius R at distance Z looks about f R / Z pixels wide; a blob
@@ -163,9 +165,25 @@ def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, ski
     use = [np.ones(len(b), bool) if skip is None else ~np.asarray(skip[j], bool) for j, b in enumerate(blobs)]
     out = [
         crossing_points(
-            *rays[j], blobs[j].radii, use[j], *rays[k], blobs[k].radii, use[k],
-            cameras[j].R, cameras[j].t, cameras[j].focal_px, cameras[k].R, cameras[k].t, cameras[k].focal_px, radius, d_min, d_max, slack,
+            *rays[j],
+            blobs[j].radii,
+            use[j],
+            *rays[k],
+            blobs[k].radii,
+            use[k],
+            cameras[j].R,
+            cameras[j].t,
+            cameras[j].focal_px,
+            cameras[k].R,
+            cameras[k].t,
+            cameras[k].focal_px,
+            radius,
+            d_min,
+            d_max,
+            slack,
         )
-        for j in range(len(rays)) for k in range(j + 1, len(rays)) if rays[j] is not None and rays[k] is not None
+        for j in range(len(rays))
+        for k in range(j + 1, len(rays))
+        if rays[j] is not None and rays[k] is not None
     ]
     return np.vstack(out) if out else np.zeros((0, 3))

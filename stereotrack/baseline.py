@@ -18,7 +18,7 @@ are not used.
 from __future__ import annotations
 
 import time as _time
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import cv2
 import numpy as np

@@ -70,7 +70,7 @@ class Board:
             s += f", markers {1000 * self.marker:g} mm, {self.dictionary}"
         return s
 
-    def opencv_charuco(self) -> "cv2.aruco.CharucoBoard":
+    def opencv_charuco(self) -> cv2.aruco.CharucoBoard:
         dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
         b = cv2.aruco.CharucoBoard(tuple(self.squares), self.square, self.marker, dictionary)
         b.setLegacyPattern(bool(self.legacy))
@@ -93,7 +93,9 @@ def board_from_dict(data: Any, path: Path | str = "<board>") -> Board:
         raise fail("type", f"expected one of {', '.join(BOARD_TYPES)}, got {data.get('type')!r}")
     squares = data.get("squares")
     if not (isinstance(squares, (list, tuple)) and len(squares) == 2 and all(isinstance(v, int) and v >= 3 for v in squares)):
-        raise fail("squares", f"expected [squares across, squares down], whole numbers >= 3 (count squares, not inner corners), got {squares!r}")
+        raise fail(
+            "squares", f"expected [squares across, squares down], whole numbers >= 3 (count squares, not inner corners), got {squares!r}"
+        )
     square = data.get("square")
     if not isinstance(square, (int, float)) or not 0.001 <= square <= 1.0:
         raise fail("square", f"expected the side of one square in metres (e.g. 0.04 for 4 cm), got {square!r}")
@@ -108,7 +110,10 @@ def board_from_dict(data: Any, path: Path | str = "<board>") -> Board:
     n_markers = (squares[0] * squares[1]) // 2
     dict_size = int(dictionary.rsplit("_", 1)[-1]) if dictionary.rsplit("_", 1)[-1].isdigit() else None
     if dict_size is not None and dict_size < n_markers:
-        raise fail("dictionary", f"{dictionary} has {dict_size} markers but a {squares[0]}x{squares[1]} board needs {n_markers}: choose a larger one")
+        raise fail(
+            "dictionary",
+            f"{dictionary} has {dict_size} markers but a {squares[0]}x{squares[1]} board needs {n_markers}: choose a larger one",
+        )
     return Board("charuco", (squares[0], squares[1]), float(square), float(marker), dictionary, bool(data.get("legacy", False)))
 
 
@@ -225,18 +230,24 @@ def diagnose(board: Board, images: list[np.ndarray]) -> str | None:
         else:  # markers first: a ChArUco board also contains chessboard-like patches
             name, count = _best_dictionary(grey)
             if name:
-                return (f"found {count} ArUco markers ({name.split('_')[1]} family, e.g. {name}): this looks like a ChArUco board but board.yaml says chessboard; "
-                        f"set type: charuco and its dictionary, marker and square sizes")
+                return (
+                    f"found {count} ArUco markers ({name.split('_')[1]} family, e.g. {name}): this looks like a ChArUco board but board.yaml says chessboard; "
+                    f"set type: charuco and its dictionary, marker and square sizes"
+                )
         found = _chessboard_any_size(grey)
         if found is not None:
             inner = found
             squares = (inner[0] + 1, inner[1] + 1)
             if board.type == "charuco":
-                return (f"found a plain chessboard with {squares[0]}x{squares[1]} squares but board.yaml describes a ChArUco board: "
-                        f"set type: chessboard, squares: [{squares[0]}, {squares[1]}]")
+                return (
+                    f"found a plain chessboard with {squares[0]}x{squares[1]} squares but board.yaml describes a ChArUco board: "
+                    f"set type: chessboard, squares: [{squares[0]}, {squares[1]}]"
+                )
             if sorted(inner) != sorted(board.inner):
-                return (f"found a chessboard with {squares[0]}x{squares[1]} squares ({inner[0]}x{inner[1]} inner corners) "
-                        f"but board.yaml says squares: [{board.squares[0]}, {board.squares[1]}]: fix 'squares' in board.yaml (count squares, not corners)")
+                return (
+                    f"found a chessboard with {squares[0]}x{squares[1]} squares ({inner[0]}x{inner[1]} inner corners) "
+                    f"but board.yaml says squares: [{board.squares[0]}, {board.squares[1]}]: fix 'squares' in board.yaml (count squares, not corners)"
+                )
     return None
 
 
@@ -272,15 +283,22 @@ def _diagnose_charuco(board: Board, grey: np.ndarray) -> str | None:
     if ids is not None and len(ids) >= 3:
         ids = ids.ravel()
         if ids.max() >= n_markers:
-            return (f"found markers with ids up to {ids.max()} but a {board.squares[0]}x{board.squares[1]} board has ids 0..{n_markers - 1}: "
-                    f"the printed board has more squares than board.yaml says; fix 'squares'")
+            return (
+                f"found markers with ids up to {ids.max()} but a {board.squares[0]}x{board.squares[1]} board has ids 0..{n_markers - 1}: "
+                f"the printed board has more squares than board.yaml says; fix 'squares'"
+            )
         if board.squares[1] % 2 == 0:
             other = replace(board, legacy=not board.legacy)
             d = BoardDetector(other).detect(grey)
             if d is not None:
-                return f"the board was printed with {'the old' if other.legacy else 'the new'} ChArUco layout: set legacy: {str(other.legacy).lower()} in board.yaml"
-        return (f"found {len(ids)} {board.dictionary} markers but too few board corners: check 'squares', 'square' and 'marker' "
-                f"in board.yaml against the print, and that the whole board is in view")
+                return (
+                    f"the board was printed with {'the old' if other.legacy else 'the new'} "
+                    f"ChArUco layout: set legacy: {str(other.legacy).lower()} in board.yaml"
+                )
+        return (
+            f"found {len(ids)} {board.dictionary} markers but too few board corners: check 'squares', 'square' and 'marker' "
+            f"in board.yaml against the print, and that the whole board is in view"
+        )
     name, count = _best_dictionary(grey)
     if name and name.split("_")[1] != board.dictionary.split("_")[1]:
         family = name.split("_")[1]

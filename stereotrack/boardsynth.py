@@ -11,9 +11,9 @@ quiet zone) is inside every camera's image.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import cv2
 import numpy as np
@@ -126,7 +126,9 @@ def _camera_rays(cam: Camera) -> np.ndarray:
         iv = np.arange(-g, nv + 2 * g, g)
         uu, vv = np.meshgrid((iu + 0.5) / s - 0.5, (iv + 0.5) / s - 0.5)  # sample centres in pixel coordinates
         xn = cam.undistort_pixels(np.column_stack([uu.ravel(), vv.ravel()])).reshape(len(iv), len(iu), 2)
-        fine = np.stack([RectBivariateSpline(iv, iu, xn[..., k])(np.arange(nv), np.arange(nu)) for k in range(2)], axis=2).astype(np.float32)
+        fine = np.stack([RectBivariateSpline(iv, iu, xn[..., k])(np.arange(nv), np.arange(nu)) for k in range(2)], axis=2).astype(
+            np.float32
+        )
         if len(_ray_cache) >= 8:
             _ray_cache.pop(next(iter(_ray_cache)))
         _ray_cache[key] = np.concatenate([fine, np.ones((nv, nu, 1), np.float32)], axis=2)
@@ -171,7 +173,14 @@ def render_board(
     behind = ~(s > 0)
     map_x[behind] = -1e6
     map_y[behind] = -1e6
-    big = cv2.remap(_texture(board), map_x.astype(np.float32), map_y.astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=_BACKGROUND)
+    big = cv2.remap(
+        _texture(board),
+        map_x.astype(np.float32),
+        map_y.astype(np.float32),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=_BACKGROUND,
+    )
     img = cv2.resize(big, (cam.width, cam.height), interpolation=cv2.INTER_AREA)
     if blur_sigma > 0:
         img = cv2.GaussianBlur(img, (0, 0), blur_sigma)
@@ -185,7 +194,9 @@ def render_views(rig: Rig, board: Board, poses: Sequence[BoardPose], rng: np.ran
     return [tuple(render_board(cam, board, pose, rng, **kwargs) for cam in rig.cameras) for pose in poses]
 
 
-def write_image_folders(folder: str | Path, rig: Rig, views: Sequence[Sequence[np.ndarray]], names: Sequence[str] | None = None) -> list[Path]:
+def write_image_folders(
+    folder: str | Path, rig: Rig, views: Sequence[Sequence[np.ndarray]], names: Sequence[str] | None = None
+) -> list[Path]:
     """Write views as ``folder/<camera>/<view>.png`` (matched by file name); returns the camera folders."""
     folder = Path(folder)
     dirs = [folder / cam.name for cam in rig.cameras]

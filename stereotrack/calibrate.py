@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import glob
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
@@ -55,7 +56,7 @@ class ViewSet:
     def seen_by(self, c: int) -> list[int]:
         return [v for v in range(self.n_views) if self.detections[v][c] is not None]
 
-    def without(self, names: Iterable[str]) -> "ViewSet":
+    def without(self, names: Iterable[str]) -> ViewSet:
         drop = set(names)
         keep = [v for v, n in enumerate(self.view_names) if n not in drop]
         return replace(self, view_names=tuple(self.view_names[v] for v in keep), detections=tuple(self.detections[v] for v in keep))
@@ -70,7 +71,7 @@ def _view_key(stems: list[str]) -> list[str]:
         while not s.startswith(prefix):
             prefix = prefix[:-1]
     prefix = prefix.rstrip("0123456789")  # never cut into a number: left01..left09 -> 01..09
-    return [s[len(prefix):] or s for s in stems]
+    return [s[len(prefix) :] or s for s in stems]
 
 
 def _list_images(source: str) -> list[Path]:
@@ -344,7 +345,9 @@ def _points(board: Board, det: Detection) -> tuple[np.ndarray, np.ndarray]:
     return obj, det.corners.astype(np.float32).reshape(-1, 1, 2)
 
 
-def calibrate_intrinsics(board: Board, detections: Sequence[Detection], image_size: tuple[int, int], flags: int = 0) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def calibrate_intrinsics(
+    board: Board, detections: Sequence[Detection], image_size: tuple[int, int], flags: int = 0
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``cv2.calibrateCamera`` on board detections: (rms, K, dist, per-view RMS, std of [fx, fy, cx, cy, ...])."""
     obj, img = zip(*(_points(board, d) for d in detections))
     K0 = np.eye(3)  # with CALIB_FIX_ASPECT_RATIO this sets fx / fy = 1
@@ -391,7 +394,9 @@ def _shared_views(views: ViewSet, board: Board, i: int, j: int) -> list[int]:
     return out
 
 
-def _make_labels_consistent(board: Board, views: list[list[Detection | None]], shared: list[int], i: int, j: int, intr: dict[int, Intrinsics]) -> int:
+def _make_labels_consistent(
+    board: Board, views: list[list[Detection | None]], shared: list[int], i: int, j: int, intr: dict[int, Intrinsics]
+) -> int:
     """Relabel camera j's chessboards that are numbered from the opposite end to camera i's.
 
     A chessboard can be found turned by half a turn in one camera and not the
@@ -462,8 +467,17 @@ def _stereo(board: Board, views, shared: list[int], i: int, j: int, intr: dict[i
         img_i.append(pi)
         img_j.append(pj)
     result = cv2.stereoCalibrateExtended(
-        obj, img_i, img_j, intr[i].K.copy(), intr[i].dist.copy(), intr[j].K.copy(), intr[j].dist.copy(), tuple(sizes[i]),
-        np.eye(3) if R0 is None else R0.copy(), np.zeros((3, 1)) if T0 is None else T0.reshape(3, 1).copy(), flags=flags,
+        obj,
+        img_i,
+        img_j,
+        intr[i].K.copy(),
+        intr[i].dist.copy(),
+        intr[j].K.copy(),
+        intr[j].dist.copy(),
+        tuple(sizes[i]),
+        np.eye(3) if R0 is None else R0.copy(),
+        np.zeros((3, 1)) if T0 is None else T0.reshape(3, 1).copy(),
+        flags=flags,
     )
     rms, Ki, di, Kj, dj, R, T = result[:7]
     per_view = result[-1]
@@ -580,7 +594,9 @@ def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], vie
     """Re-express the rig in the frame of the board as seen in one view: origin at the board's
     outer corner, x along its rows, z up out of the printed face (towards the cameras)."""
     if view_name not in views.view_names:
-        raise StereotrackError(f"--world-view {view_name!r}: no such view (views: {', '.join(views.view_names[:8])}{', ...' if views.n_views > 8 else ''})")
+        raise StereotrackError(
+            f"--world-view {view_name!r}: no such view (views: {', '.join(views.view_names[:8])}{', ...' if views.n_views > 8 else ''})"
+        )
     v = views.view_names.index(view_name)
     seen = [c for c in range(len(cams)) if dets[v][c] is not None]
     if len(seen) < 2:
@@ -609,30 +625,42 @@ def _verdict(report: dict[str, Any]) -> tuple[str, list[str]]:
     redo, usable = [], []
     for name, cam in report["cameras"].items():
         if cam["rms_px"] > 1.0:
-            redo.append(f"{name}: reprojection error {cam['rms_px']:.2f} px is high (blurred or moving board, board not flat, or wrong board settings)")
+            redo.append(
+                f"{name}: reprojection error {cam['rms_px']:.2f} px is high (blurred or moving board, board not flat, or wrong board settings)"
+            )
         elif cam["rms_px"] > 0.5:
             usable.append(f"{name}: reprojection error {cam['rms_px']:.2f} px (under 0.5 px is good)")
         if cam["coverage"] < 0.35:
-            redo.append(f"{name}: board corners cover only {100 * cam['coverage']:.0f}% of the image: move the board into the corners and edges")
+            redo.append(
+                f"{name}: board corners cover only {100 * cam['coverage']:.0f}% of the image: move the board into the corners and edges"
+            )
         elif cam["coverage"] < 0.6:
-            usable.append(f"{name}: board corners cover {100 * cam['coverage']:.0f}% of the image (60% or more is good): add views near the edges")
+            usable.append(
+                f"{name}: board corners cover {100 * cam['coverage']:.0f}% of the image (60% or more is good): add views near the edges"
+            )
     for pair in report["pairs"]:
         label = "-".join(pair["cameras"])
         if pair["epipolar_mean_px"] > 1.0:
-            redo.append(f"{label}: epipolar error {pair['epipolar_mean_px']:.2f} px is high (unsynchronised pairs, or the rig moved while capturing)")
+            redo.append(
+                f"{label}: epipolar error {pair['epipolar_mean_px']:.2f} px is high (unsynchronised pairs, or the rig moved while capturing)"
+            )
         elif pair["epipolar_mean_px"] > 0.5:
             usable.append(f"{label}: epipolar error {pair['epipolar_mean_px']:.2f} px (under 0.5 px is good)")
         if pair["views"] < 10:
             usable.append(f"{label}: only {pair['views']} views seen by both cameras ({RECOMMENDED_VIEWS}-25 give steadier results)")
     outliers = [w for w in report["views"]["ranked"] if w["outlier"]]
     if outliers:
-        usable.append(f"{len(outliers)} view(s) fit much worse than the rest ({', '.join(w['view'] for w in outliers[:3])}): "
-                      f"try --drop-worst {len(outliers)}")
+        usable.append(
+            f"{len(outliers)} view(s) fit much worse than the rest ({', '.join(w['view'] for w in outliers[:3])}): "
+            f"try --drop-worst {len(outliers)}"
+        )
     verdict = "redo" if redo else "usable" if usable else "good"
     return verdict, redo + usable
 
 
-def _report(views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrinsics], pairs: list[dict], options: CalibrationOptions) -> dict[str, Any]:
+def _report(
+    views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrinsics], pairs: list[dict], options: CalibrationOptions
+) -> dict[str, Any]:
     per_view: dict[int, dict[str, float]] = {v: {} for v in range(views.n_views)}
     cameras: dict[str, Any] = {}
     all_sq = []
@@ -670,17 +698,19 @@ def _report(views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrin
         epi_all.append(epi)
         R = cj.R @ ci.R.T
         baseline = float(np.linalg.norm(ci.centre - cj.centre))
-        pair_reports.append({
-            "cameras": [ci.name, cj.name],
-            "views": len(pr["views"]),
-            "rms_px": round(pr["rms"], 4),
-            "epipolar_mean_px": round(float(epi.mean()), 4),
-            "epipolar_rms_px": round(float(np.sqrt(np.mean(epi**2))), 4),
-            "baseline_m": round(baseline, 5),
-            "baseline_squares": round(baseline / board.square, 4),
-            "rotation_deg": round(_angle_deg(R), 3),
-            "relabelled_views": pr["relabelled"],
-        })
+        pair_reports.append(
+            {
+                "cameras": [ci.name, cj.name],
+                "views": len(pr["views"]),
+                "rms_px": round(pr["rms"], 4),
+                "epipolar_mean_px": round(float(epi.mean()), 4),
+                "epipolar_rms_px": round(float(np.sqrt(np.mean(epi**2))), 4),
+                "baseline_m": round(baseline, 5),
+                "baseline_squares": round(baseline / board.square, 4),
+                "rotation_deg": round(_angle_deg(R), 3),
+                "relabelled_views": pr["relabelled"],
+            }
+        )
     scores = {v: max(errs.values()) for v, errs in per_view.items() if errs}
     median = float(np.median(list(scores.values())))
     ranked = sorted(scores, key=lambda v: -scores[v])
@@ -696,7 +726,11 @@ def _report(views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrin
         "views": {
             "used": views.n_views,
             "ranked": [
-                {"view": views.view_names[v], "error_px": round(scores[v], 4), "outlier": bool(scores[v] > max(2.5 * median, median + 0.25))}
+                {
+                    "view": views.view_names[v],
+                    "error_px": round(scores[v], 4),
+                    "outlier": bool(scores[v] > max(2.5 * median, median + 0.25)),
+                }
                 for v in ranked
             ],
             "per_view_rms_px": {views.view_names[v]: per_view[v] for v in range(views.n_views)},
@@ -718,7 +752,8 @@ def format_report(report: dict[str, Any]) -> str:
         )
     for p in report["pairs"]:
         lines.append(
-            f"{p['cameras'][0]}-{p['cameras'][1]}: stereo RMS {p['rms_px']:.3f} px over {p['views']} views, epipolar error mean {p['epipolar_mean_px']:.3f} px, "
+            f"{p['cameras'][0]}-{p['cameras'][1]}: stereo RMS {p['rms_px']:.3f} px over "
+            f"{p['views']} views, epipolar error mean {p['epipolar_mean_px']:.3f} px, "
             f"baseline {1000 * p['baseline_m']:.1f} mm ({p['baseline_squares']:.2f} squares), rotation {p['rotation_deg']:.2f} deg"
         )
     worst = report["views"]["ranked"][:3]

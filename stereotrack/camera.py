@@ -8,10 +8,11 @@ points; a rig holds two or more cameras.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
@@ -219,7 +220,9 @@ def triangulate_points(cameras: Sequence[Camera], pixels: Sequence[np.ndarray]) 
     return kernels().triangulate_dlt(xn, np.ascontiguousarray(P, dtype=float))
 
 
-def triangulate_with_covariance(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], pixel_sigma: float) -> tuple[np.ndarray, np.ndarray]:
+def triangulate_with_covariance(
+    cameras: Sequence[Camera], pixels: Sequence[np.ndarray], pixel_sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
     """``triangulate_points`` plus each point's covariance for isotropic pixel noise ``pixel_sigma``:
     sigma^2 J J', J (3 x 4) the derivative of the first two cameras' triangulation with respect to
     their four pixel coordinates, by central differences. It grows along the viewing direction with

@@ -22,13 +22,23 @@ ISODATA rules, all driven by the ball radius R:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
 from .camera import Camera, stacked_kernel_arrays
-from .kernels import greedy_seeds, hard_labels, keep_heavy, label_moments, merge_one_ball_clusters, projected_spreads, systematic_resample, weighted_em
+from .kernels import (
+    greedy_seeds,
+    hard_labels,
+    keep_heavy,
+    label_moments,
+    merge_one_ball_clusters,
+    projected_spreads,
+    systematic_resample,
+    weighted_em,
+)
+
 
 @dataclass(frozen=True)
 class ClusterSettings:
@@ -62,8 +72,14 @@ def _sklearn_em(X, w, means, covs, iterations, reg, rng):
     idx = systematic_indices(w / w.sum(), min(len(X), 600), rng)
     Xs = X[idx]
     gm = GaussianMixture(
-        len(means), covariance_type="full", max_iter=iterations, reg_covar=reg, means_init=means,
-        precisions_init=np.linalg.inv(covs), random_state=int(rng.integers(2**31)), tol=1e-4,
+        len(means),
+        covariance_type="full",
+        max_iter=iterations,
+        reg_covar=reg,
+        means_init=means,
+        precisions_init=np.linalg.inv(covs),
+        random_state=int(rng.integers(2**31)),
+        tol=1e-4,
     )
     gm.fit(Xs)
     resp = gm.predict_proba(X)

@@ -54,9 +54,13 @@ class TrackerSettings:
     em: str = "numpy"  # "numpy" (our weighted EM, compiled; default) or "sklearn" (GaussianMixture on resampled particles; slower)
     particle_velocity: bool = True  # particles near a track drift with its velocity (else the paper's pure random walk)
     exclusion: bool = True  # a particle following one track dies inside another tracked ball (seed 000's blocking)
-    occlusion: bool = True  # a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it
+    occlusion: bool = (
+        True  # a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it
+    )
     refine: bool = True  # objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from particles + motion)
-    disc_fit: bool = True  # with one clean view and a blob shared with other balls in another: depth along the ray where the balls' discs best make up that blob
+    disc_fit: bool = (
+        True  # with one clean view and a blob shared with other balls in another: depth along the ray where the balls' discs best fit it
+    )
     seed: int = 0  # random seed; runs are reproducible
 
 
@@ -75,7 +79,9 @@ class TrackSettings:
     min_separation: float = 0.05  # metres; an unmatched object this close to a live track is that ball seen twice, not a new one
     up: tuple[float, float, float] | None = None  # the world's up axis, e.g. [0, 0, 1], for gravity; none = no gravity (unknown rig)
     g: float = 9.81  # gravity, m/s^2, used only when 'up' is set
-    flight_window: float = 0.25  # seconds of recent positions that decide if a ball flies freely (gravity on) or is held, swung or rolled (off)
+    flight_window: float = (
+        0.25  # seconds of recent positions that decide if a ball flies freely (gravity on) or is held, swung or rolled (off)
+    )
 
 
 @dataclass(frozen=True)

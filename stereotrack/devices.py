@@ -95,7 +95,7 @@ class _StandInScene:
 class _SharedScene:
     """One scene rendered once per frame for every simulated camera that views it."""
 
-    _registry: dict[tuple, "_SharedScene"] = {}
+    _registry: dict[tuple, _SharedScene] = {}
     _registry_lock = threading.Lock()
 
     def __init__(self, preset: str, width: int, height: int, fps: float, loop: float | None = None):
@@ -117,7 +117,7 @@ class _SharedScene:
             self._cache[0] = tuple(self.renderer.render(0)[0])
 
     @classmethod
-    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> "_SharedScene":
+    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> _SharedScene:
         key = (preset, width, height, fps, loop)
         with cls._registry_lock:
             if key not in cls._registry:
@@ -134,7 +134,9 @@ class _SharedScene:
                 for old in [i for i in self._cache if i < k - 8 and not self._keep_all]:
                     del self._cache[old]
         if view >= len(images):
-            raise StereotrackError(f"sim:{self.preset} has {len(images)} cameras; view={view} does not exist (use view=0..{len(images) - 1})")
+            raise StereotrackError(
+                f"sim:{self.preset} has {len(images)} cameras; view={view} does not exist (use view=0..{len(images) - 1})"
+            )
         return images[view]
 
 
@@ -165,9 +167,19 @@ class SimulatedCamera:
 
     finite = False
 
-    def __init__(self, preset: str = "dots", view: int = 0, jitter: float = 0.002, drop: float = 0.01,
-                 stop_after: float | None = None, seed: int = 0, width: int = 640, height: int = 480, fps: float = 30.0,
-                 loop: float | None = None):
+    def __init__(
+        self,
+        preset: str = "dots",
+        view: int = 0,
+        jitter: float = 0.002,
+        drop: float = 0.01,
+        stop_after: float | None = None,
+        seed: int = 0,
+        width: int = 640,
+        height: int = 480,
+        fps: float = 30.0,
+        loop: float | None = None,
+    ):
         self.preset, self.view, self.loop = preset, int(view), loop
         self.jitter, self.drop, self.stop_after = float(jitter), float(drop), stop_after
         self._props = {cv2.CAP_PROP_FRAME_WIDTH: float(width), cv2.CAP_PROP_FRAME_HEIGHT: float(height), cv2.CAP_PROP_FPS: float(fps)}
@@ -186,8 +198,15 @@ class SimulatedCamera:
         if prop in (cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT, cv2.CAP_PROP_FPS) and self._scene is None:
             self._props[prop] = float(value)
             return True
-        if prop in (cv2.CAP_PROP_FOURCC, cv2.CAP_PROP_EXPOSURE, cv2.CAP_PROP_AUTO_EXPOSURE, cv2.CAP_PROP_GAIN,
-                    cv2.CAP_PROP_AUTO_WB, cv2.CAP_PROP_WB_TEMPERATURE, cv2.CAP_PROP_BUFFERSIZE):
+        if prop in (
+            cv2.CAP_PROP_FOURCC,
+            cv2.CAP_PROP_EXPOSURE,
+            cv2.CAP_PROP_AUTO_EXPOSURE,
+            cv2.CAP_PROP_GAIN,
+            cv2.CAP_PROP_AUTO_WB,
+            cv2.CAP_PROP_WB_TEMPERATURE,
+            cv2.CAP_PROP_BUFFERSIZE,
+        ):
             self._props[prop] = float(value)
             return True
         return False
@@ -295,13 +314,19 @@ class VideoFileCamera:
 
 
 def _parse_sim(spec: str, slot: int) -> dict[str, Any]:
-    body = spec[len("sim:"):]
+    body = spec[len("sim:") :]
     preset, *options = body.split(",")
     if not preset:
         raise StereotrackError(f"{spec!r}: name a scene after 'sim:', e.g. sim:pendulum4 (see `stereotrack synth --list`)")
     kwargs: dict[str, Any] = {"preset": preset, "view": slot, "seed": slot}
-    casts = {"view": ("view", int), "jitter": ("jitter", float), "drop": ("drop", float), "stop": ("stop_after", float), "seed": ("seed", int),
-             "loop": ("loop", float)}
+    casts = {
+        "view": ("view", int),
+        "jitter": ("jitter", float),
+        "drop": ("drop", float),
+        "stop": ("stop_after", float),
+        "seed": ("seed", int),
+        "loop": ("loop", float),
+    }
     for opt in options:
         key, _, value = opt.partition("=")
         if key not in casts:
@@ -339,7 +364,9 @@ def open_device(spec: str, slot: int = 0, settings: CaptureSettings = CaptureSet
         return open_webcam(int(spec), settings)
     path = Path(spec)
     if not path.is_file():
-        raise StereotrackError(f"camera {spec!r}: not a device index, an existing video file or sim:SCENE (run `stereotrack cameras` to list devices)")
+        raise StereotrackError(
+            f"camera {spec!r}: not a device index, an existing video file or sim:SCENE (run `stereotrack cameras` to list devices)"
+        )
     cam = VideoFileCamera(path)
     if not cam.isOpened():
         raise StereotrackError(f"{path}: OpenCV cannot open this video")

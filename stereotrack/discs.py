@@ -31,8 +31,15 @@ def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray,
     label image and boxes.
     """
     return ball_union_mismatch(
-        np.ascontiguousarray(candidates, dtype=float), np.ascontiguousarray(others, dtype=float).reshape(-1, 3), radius,
-        *cam._kernel_arrays, blobs.labels, blobs.label_blob, blob, blobs.boxes[blob], blobs.label_scale,
+        np.ascontiguousarray(candidates, dtype=float),
+        np.ascontiguousarray(others, dtype=float).reshape(-1, 3),
+        radius,
+        *cam._kernel_arrays,
+        blobs.labels,
+        blobs.label_blob,
+        blob,
+        blobs.boxes[blob],
+        blobs.label_scale,
     )
 
 
@@ -53,5 +60,7 @@ def depth_on_ray(mismatch: np.ndarray, depths: np.ndarray, prior: float, prior_s
     """
     if scale <= 0:
         return None
-    mean, sigma = posterior_depth(np.asarray(mismatch, dtype=float), np.asarray(depths, dtype=float), float(prior), float(prior_sigma), float(scale))
+    mean, sigma = posterior_depth(
+        np.asarray(mismatch, dtype=float), np.asarray(depths, dtype=float), float(prior), float(prior_sigma), float(scale)
+    )
     return None if np.isnan(mean) else RayFit(mean, sigma)

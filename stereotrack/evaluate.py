@@ -73,7 +73,18 @@ def evaluate(tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: n
     mh = mm.metrics.create()
     s = mh.compute(
         acc,
-        metrics=["num_frames", "num_objects", "num_matches", "num_misses", "num_false_positives", "num_switches", "mota", "motp", "recall", "precision"],
+        metrics=[
+            "num_frames",
+            "num_objects",
+            "num_matches",
+            "num_misses",
+            "num_false_positives",
+            "num_switches",
+            "mota",
+            "motp",
+            "recall",
+            "precision",
+        ],
         name="run",
     )
     ev = acc.mot_events

@@ -30,8 +30,8 @@ is compared with a ball of the known radius at the object's depth:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 import numpy as np
 
@@ -217,13 +217,16 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
     return out
 
 
-def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings):
+def _clean_views(
+    i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings
+):
     """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size and not cut by a nearer
     ball of another colour, [(camera, mates)] where it shares its blob)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
     good = [
-        j for j in range(blob_ids.shape[1])
+        j
+        for j in range(blob_ids.shape[1])
         # unseen, clipped or occluded in a camera: not clean there
         if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance and not hidden[n, j]
     ]

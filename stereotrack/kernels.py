@@ -386,7 +386,9 @@ def log_gauss(X, means, covs, pis):
         for i in range(n):
             d0, d1, d2 = X[i, 0] - m0, X[i, 1] - m1, X[i, 2] - m2
             maha = (
-                P[0, 0] * d0 * d0 + P[1, 1] * d1 * d1 + P[2, 2] * d2 * d2
+                P[0, 0] * d0 * d0
+                + P[1, 1] * d1 * d1
+                + P[2, 2] * d2 * d2
                 + 2.0 * (P[0, 1] * d0 * d1 + P[0, 2] * d0 * d2 + P[1, 2] * d1 * d2)
             )
             out[i, c] = const - 0.5 * maha
@@ -865,7 +867,9 @@ def association_costs(positions, covs, z, R):
             inv, logdet = _inverse_logdet(covs[a] + R[b])
             y0, y1, y2 = z[b, 0] - positions[a, 0], z[b, 1] - positions[a, 1], z[b, 2] - positions[a, 2]
             m = (
-                inv[0, 0] * y0 * y0 + inv[1, 1] * y1 * y1 + inv[2, 2] * y2 * y2
+                inv[0, 0] * y0 * y0
+                + inv[1, 1] * y1 * y1
+                + inv[2, 2] * y2 * y2
                 + 2.0 * (inv[0, 1] * y0 * y1 + inv[0, 2] * y0 * y2 + inv[1, 2] * y1 * y2)
             )
             d2[a, b] = m
@@ -957,7 +961,9 @@ def warm_up() -> None:
     camera_likelihood(np.ones(3), X, *camera_arrays, np.zeros((5, 5), np.int32), 3, np.zeros(3), X[:1].copy(), np.ones(1))
     nearest_within(X, X[:1].copy(), 1.0)
     yes = np.ones(3, np.bool_)
-    crossing_points(X, X, np.ones(3), yes, X, X, np.ones(3), yes, np.eye(3), np.zeros(3), 1.0, np.eye(3), np.zeros(3), 1.0, 0.02, 0.1, 5.0, 1.6)
+    crossing_points(
+        X, X, np.ones(3), yes, X, X, np.ones(3), yes, np.eye(3), np.zeros(3), 1.0, np.eye(3), np.zeros(3), 1.0, 0.02, 0.1, 5.0, 1.6
+    )
     x6, P6 = kalman_predict(np.zeros(6), np.eye(6), np.eye(6), np.eye(6), np.zeros(6))
     kalman_correct(x6, P6, np.zeros(3), np.eye(3))
     association_costs(X, np.repeat(np.eye(3)[None], 3, axis=0), X, np.repeat(np.eye(3)[None], 3, axis=0))

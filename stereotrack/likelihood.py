@@ -10,7 +10,7 @@ i.e. the floor: no probability wells, no reward.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

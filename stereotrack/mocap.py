@@ -62,7 +62,7 @@ class BallCapture:
         v = np.linalg.norm(np.diff(self.positions, axis=0), axis=2) / dt
         return v[np.isfinite(v)]
 
-    def resample(self, fps: float, duration: float | None = None) -> "BallCapture":
+    def resample(self, fps: float, duration: float | None = None) -> BallCapture:
         """Linear interpolation onto t = k / fps; NaN where either neighbour is unknown."""
         end = self.times[-1] if duration is None else min(duration, self.times[-1])
         t = np.arange(0.0, end + 1e-9, 1.0 / fps)
@@ -184,7 +184,9 @@ def link_points(points: np.ndarray, frequency: float, gate: float = 0.04, max_ga
     return out
 
 
-def link_balls(capture: MocapCapture, n_balls: int | None = None, gate: float = 0.04, max_gap: int = 30, min_length: int = 30) -> BallCapture:
+def link_balls(
+    capture: MocapCapture, n_balls: int | None = None, gate: float = 0.04, max_gap: int = 30, min_length: int = 30
+) -> BallCapture:
     """The capture's unnamed markers as ball trajectories (F x B x 3, NaN = not known).
 
     Linked tracks shorter than ``min_length`` frames (ghost markers) are

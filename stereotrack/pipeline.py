@@ -8,8 +8,8 @@ frames came from, and sinks never reach back into it.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -101,9 +101,13 @@ class Tracker:
         particle_sets = []
         for t in self.config.targets:
             st = states[t.name]
-            cl = cluster_particles(st.positions, st.weights, st.likelihoods, cams, self.cluster_settings[t.name], self.prev_means[t.name], self.cluster_rng)
+            cl = cluster_particles(
+                st.positions, st.weights, st.likelihoods, cams, self.cluster_settings[t.name], self.prev_means[t.name], self.cluster_rng
+            )
             self.prev_means[t.name] = cl.means
-            candidates = [Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))]
+            candidates = [
+                Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))
+            ]
             pred = np.array([tr.position for tr in live if tr.target == t.name]).reshape(-1, 3)
             others = [tr for tr in live if tr.target != t.name] if s.occlusion else []
             occluders = (np.array([tr.position for tr in others]).reshape(-1, 3), np.array([radius[tr.target] for tr in others]))
@@ -121,7 +125,13 @@ class Tracker:
         shown_rays = self._rays(blobs, rays) if self.keep_rays else ()
         masks = {(t.name, cm.camera): cm.masks[t.name] for cm in cmasks for t in self.config.targets}
         return FrameResult(
-            frame=pair, particles=tuple(particle_sets), objects=tuple(objects), tracks=tracks, rays=shown_rays, masks=masks, timings_ms=timings
+            frame=pair,
+            particles=tuple(particle_sets),
+            objects=tuple(objects),
+            tracks=tracks,
+            rays=shown_rays,
+            masks=masks,
+            timings_ms=timings,
         )
 
     def _follow_tracks(self, tracks) -> None:
@@ -161,7 +171,9 @@ class RunSummary:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
 
-def run_pipeline(source: Iterable[FramePair], tracker, sinks: Sequence[Sink], progress: bool = True, total: int | None = None) -> RunSummary:
+def run_pipeline(
+    source: Iterable[FramePair], tracker, sinks: Sequence[Sink], progress: bool = True, total: int | None = None
+) -> RunSummary:
     """Feed every frame of ``source`` through ``tracker`` into ``sinks``; sinks are closed even on Ctrl-C."""
     bar = Progress(total, "tracking", "frames", enabled=progress)
     start = time.perf_counter()

@@ -17,8 +17,8 @@ Good abductive particles survive into the next sequential part; bad ones die.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

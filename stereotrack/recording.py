@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
@@ -86,7 +87,7 @@ class RecordingWriter:
             "videos": videos,
             "fps": self.fps,
             "image_size": list(self.image_size),
-            "created": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "created": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "source": source,
         }
         if targets is not None:
@@ -149,7 +150,7 @@ class RecordingWriter:
                 os.fsync(f.fileno())
                 f.close()
 
-    def __enter__(self) -> "RecordingWriter":
+    def __enter__(self) -> RecordingWriter:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -271,7 +272,9 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
     n = len(timestamps)
     known = [c for c in counts if c > 0]
     if known and min(known) != n:
-        warn(f"{folder}: frames.csv has {n} rows but the videos hold {min(known)} frames (interrupted recording?); reading {min(n, min(known))} complete pairs")
+        warn(
+            f"{folder}: frames.csv has {n} rows but the videos hold {min(known)} frames (interrupted recording?); reading {min(n, min(known))} complete pairs"
+        )
         n = min(n, min(known))
     rig = None
     calib_path = Path(calib) if calib else folder / "calib.yaml"
@@ -279,7 +282,7 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
         rig = load_rig(calib_path)
         if len(rig) != len(names):
             raise StereotrackError(f"{calib_path}: has {len(rig)} cameras but the recording has {len(names)}")
-        for cam, cam_name in zip(rig.cameras, names):
+        for cam in rig.cameras:
             if tuple(cam.image_size) != tuple(size):
                 raise StereotrackError(
                     f"{calib_path}: camera {cam.name} is calibrated for {cam.width}x{cam.height} but the recording's videos are {size[0]}x{size[1]} "
@@ -333,11 +336,16 @@ class RecordingSink:
             h, w = pair.images[0].shape[:2]
             for name, img in zip(self.camera_names, pair.images):
                 if img.shape[:2] != (h, w):
-                    raise StereotrackError(f"camera {name} delivers {img.shape[1]}x{img.shape[0]} frames but {self.camera_names[0]} {w}x{h}: set one size for all (--width/--height)")
+                    raise StereotrackError(
+                        f"camera {name} delivers {img.shape[1]}x{img.shape[0]} frames but "
+                        f"{self.camera_names[0]} {w}x{h}: set one size for all (--width/--height)"
+                    )
             if self.rig is not None:
                 for cam in self.rig.cameras:
                     if tuple(cam.image_size) != (w, h):
-                        raise StereotrackError(f"calibration camera {cam.name} is {cam.width}x{cam.height} but the cameras deliver {w}x{h} (record at the calibrated size)")
+                        raise StereotrackError(
+                            f"calibration camera {cam.name} is {cam.width}x{cam.height} but the cameras deliver {w}x{h} (record at the calibrated size)"
+                        )
             self.writer = RecordingWriter(self.folder, self.camera_names, (w, h), self.fps, rig=self.rig, **self.writer_options)
         self.writer.write(pair.images, pair.timestamps)
 

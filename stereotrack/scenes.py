@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from .errors import StereotrackError
-from .yamlfile import load_yaml
-from .synth import BallSpec, colour_bgr, Lighting, Occluder, RigSpec, SceneSpec
+from .synth import BallSpec, Lighting, Occluder, RigSpec, SceneSpec, colour_bgr
 from .trajectories import TRAJECTORIES, Ballistic, Line, Pendulum, Samples, Static
+from .yamlfile import load_yaml
 
 _RIG_KEYS = {f.name for f in dataclasses.fields(RigSpec)}
 _SCENE_KEYS = {"fps", "n_frames", "seed", "noise", "blur", "exposure", "jpeg_quality", "distractors"}
@@ -114,7 +115,9 @@ def place_capture(times: np.ndarray, points: np.ndarray, rig: RigSpec, radius: f
         for cam in trial.build().cameras:
             uv, front = cam.project(world)
             margin = cam.K[0, 0] * radius / np.maximum(cam.depth(world), 1e-6) + 4
-            ok &= bool(front.all() and np.all(uv >= margin[:, None]) and np.all(uv <= np.array([cam.width - 1, cam.height - 1]) - margin[:, None]))
+            ok &= bool(
+                front.all() and np.all(uv >= margin[:, None]) and np.all(uv <= np.array([cam.width - 1, cam.height - 1]) - margin[:, None])
+            )
         if ok:
             return pts + [0.0, depth, 0.0], trial
     raise StereotrackError("the captured motion does not fit in the cameras' view at any depth up to 8 m (widen hfov)")

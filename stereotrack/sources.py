@@ -19,9 +19,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Iterator, Sequence
 
 import cv2
 import numpy as np
@@ -105,7 +105,7 @@ class Pairer:
 class _CameraThread(threading.Thread):
     """Grabs frames from one device, stamps them and hands them to the source."""
 
-    def __init__(self, source: "CameraPairSource", slot: int, device: VideoDevice, spec: str):
+    def __init__(self, source: CameraPairSource, slot: int, device: VideoDevice, spec: str):
         super().__init__(name=f"capture-{spec}", daemon=True)  # a hung device must not keep the process alive
         self.source, self.slot, self.device, self.spec = source, slot, device, spec
         self.frames = 0
@@ -123,7 +123,9 @@ class _CameraThread(threading.Thread):
                     if getattr(self.device, "finite", False):
                         self.ended = True
                     elif not self.stop.is_set():
-                        self.error = f"camera {self.source.camera_names[self.slot]} ({describe(self.spec)}) stopped delivering frames (unplugged?)"
+                        self.error = (
+                            f"camera {self.source.camera_names[self.slot]} ({describe(self.spec)}) stopped delivering frames (unplugged?)"
+                        )
                     break
                 stamp = clock()
                 # The device's own capture time (V4L2 buffer timestamp, on the same monotonic
@@ -257,15 +259,21 @@ class CameraPairSource:
                 raise StopIteration  # a video file ended: no more pairs can form
             if th.last_frame is None:
                 if now - self._started > self.start_timeout:
-                    raise StereotrackError(f"camera {name} ({describe(th.spec)}) delivered no frame in {self.start_timeout:.0f} s (check the device and its settings)")
+                    raise StereotrackError(
+                        f"camera {name} ({describe(th.spec)}) delivered no frame in {self.start_timeout:.0f} s (check the device and its settings)"
+                    )
             elif now - th.last_frame > self.stall_timeout:
-                raise StereotrackError(f"camera {name} ({describe(th.spec)}) delivered no frame for {self.stall_timeout:.1f} s (unplugged or stalled?)")
+                raise StereotrackError(
+                    f"camera {name} ({describe(th.spec)}) delivered no frame for {self.stall_timeout:.1f} s (unplugged or stalled?)"
+                )
 
     @property
     def stats(self) -> SourceStats:
         with self._cond:
             cams = tuple(
-                CameraStats(self.camera_names[th.slot], th.spec, th.frames, th.fps(), self._dropped[th.slot], self._pairer.unpaired[th.slot])
+                CameraStats(
+                    self.camera_names[th.slot], th.spec, th.frames, th.fps(), self._dropped[th.slot], self._pairer.unpaired[th.slot]
+                )
                 for th in self._threads
             )
             return SourceStats(cams, self._pairs, self._pairs_dropped)
@@ -280,7 +288,7 @@ class CameraPairSource:
         for th in self._threads:
             th.join(timeout=0.5)  # a real driver stuck in read() is left to die with the process
 
-    def __enter__(self) -> "CameraPairSource":
+    def __enter__(self) -> CameraPairSource:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -324,8 +332,15 @@ def paced(
 class RecordingSource:
     """A recording folder as a source: as fast as possible, or at its recorded pace (``realtime``)."""
 
-    def __init__(self, recording: Recording | str | Path, realtime: bool = False, calib: str | Path | None = None,
-                 start: int = 0, stop: int | None = None, skip_late: bool = True):
+    def __init__(
+        self,
+        recording: Recording | str | Path,
+        realtime: bool = False,
+        calib: str | Path | None = None,
+        start: int = 0,
+        stop: int | None = None,
+        skip_late: bool = True,
+    ):
         self.recording = recording if isinstance(recording, Recording) else open_recording(recording, calib)
         self.realtime = realtime
         self.rig = self.recording.rig
@@ -352,7 +367,10 @@ class RecordingSource:
 
     @property
     def stats(self) -> SourceStats:
-        cams = tuple(CameraStats(n, str(self.recording.folder), self._delivered + self._skipped, self.fps, self._skipped, 0) for n in self.camera_names)
+        cams = tuple(
+            CameraStats(n, str(self.recording.folder), self._delivered + self._skipped, self.fps, self._skipped, 0)
+            for n in self.camera_names
+        )
         return SourceStats(cams, self._delivered, self._skipped)
 
     def close(self) -> None:
@@ -383,7 +401,7 @@ class StopOnSignals:
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
 
-    def __enter__(self) -> "StopOnSignals":
+    def __enter__(self) -> StopOnSignals:
         import signal
 
         if threading.current_thread() is threading.main_thread():

@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import os
 import shutil
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
@@ -227,7 +228,9 @@ class SceneRenderer:
         for cam in self.rig.cameras:
             _, dirs = cam.rays(pixels)  # undistorted, so lens distortion is exact
             bg = make_background(rng, w, h, spec.distractors, hue)
-            self._cams.append(_CameraCache(cam, dirs.reshape(h, w, 3).astype(np.float32), cam.centre.astype(np.float32), bg, float(cam.K[0, 0])))
+            self._cams.append(
+                _CameraCache(cam, dirs.reshape(h, w, 3).astype(np.float32), cam.centre.astype(np.float32), bg, float(cam.K[0, 0]))
+            )
         # One bank of Gaussian noise; each frame reads it at seeded offsets (cheap, still Gaussian per pixel).
         self._noise = (rng.standard_normal(2 * w * h * 3, dtype=np.float32) * spec.noise) if spec.noise > 0 else None
 

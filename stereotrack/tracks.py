@@ -25,8 +25,8 @@ shrink it).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -207,7 +207,9 @@ class TrackManager:
         """Per object (M x 3 x 3): the measurement noise plus the object's own covariance (symmetrised;
         a missing or non-finite one counts zero)."""
         zero = np.zeros((3, 3))
-        covs = np.array([zero if o.covariance is None or np.shape(o.covariance) != (3, 3) else o.covariance for o in objs], float).reshape(-1, 3, 3)
+        covs = np.array([zero if o.covariance is None or np.shape(o.covariance) != (3, 3) else o.covariance for o in objs], float).reshape(
+            -1, 3, 3
+        )
         covs[~np.isfinite(covs).all(axis=(1, 2))] = zero
         R = np.eye(3) * self.settings.measurement_sigma**2 + 0.5 * (covs + covs.transpose(0, 2, 1))
         if self.settings.measurement_sigma <= 0:  # zero noise everywhere: keep the filter invertible

@@ -59,8 +59,16 @@ APPLICATION_ID = "stereotrack"
 # Cluster colours (matplotlib's tab10, RGB): particles, objects and their 2D windows share them.
 PALETTE = np.array(
     [
-        [31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],
-        [140, 86, 75], [227, 119, 194], [188, 189, 34], [23, 190, 207], [127, 127, 127],
+        [31, 119, 180],
+        [255, 127, 14],
+        [44, 160, 44],
+        [214, 39, 40],
+        [148, 103, 189],
+        [140, 86, 75],
+        [227, 119, 194],
+        [188, 189, 34],
+        [23, 190, 207],
+        [127, 127, 127],
     ],
     dtype=np.uint8,
 )
@@ -158,7 +166,11 @@ def default_blueprint(rig: Rig, with_truth: bool = False) -> Any:
     cams = [rrb.Spatial2DView(origin=f"world/cameras/{c.name}", name=c.name) for c in rig.cameras]
     series = [
         rrb.TimeSeriesView(origin="stats/counts/particles", name="particles per track"),
-        rrb.TimeSeriesView(origin="stats/counts/objects", contents=["$origin/**", "stats/counts/confirmed_tracks"], name="objects in view, confirmed tracks"),
+        rrb.TimeSeriesView(
+            origin="stats/counts/objects",
+            contents=["$origin/**", "stats/counts/confirmed_tracks"],
+            name="objects in view, confirmed tracks",
+        ),
         rrb.TimeSeriesView(origin="stats/timing_ms", name="per-stage ms"),
         rrb.TimeSeriesView(origin="stats/rate", name="frames/s, latency ms"),
     ]
@@ -241,7 +253,9 @@ def _start_viewer_process(args: list[str], host: str, port: int, what: str, deta
         elif proc.stderr is not None:
             lines = [ln for ln in proc.stderr.read().decode(errors="replace").splitlines() if ln.strip()]
             err = f" ({lines[-1].strip()[:200]})" if lines else ""
-        raise StereotrackError(f"could not start {what} on port {port}{err}; is the port taken? use --rrd FILE and open it later with 'rerun FILE'")
+        raise StereotrackError(
+            f"could not start {what} on port {port}{err}; is the port taken? use --rrd FILE and open it later with 'rerun FILE'"
+        )
     return proc
 
 
@@ -255,7 +269,9 @@ def normalise_connect_url(url: str) -> str:
         return f"rerun+http://{host or '127.0.0.1'}:{port}/proxy"
     scheme = url.split("://", 1)[0]
     if scheme not in ("rerun", "rerun+http", "rerun+https") or not url.rstrip("/").endswith("/proxy"):
-        raise StereotrackError(f"--connect {url!r}: expected rerun+http://HOST:PORT/proxy (scheme rerun, rerun+http or rerun+https, path /proxy)")
+        raise StereotrackError(
+            f"--connect {url!r}: expected rerun+http://HOST:PORT/proxy (scheme rerun, rerun+http or rerun+https, path /proxy)"
+        )
     return url
 
 
@@ -318,7 +334,10 @@ class SeriesBuffer:
             if frames:
                 key = tuple(frames)
                 if key not in index:
-                    index[key] = [rr.TimeColumn("frame", sequence=np.array(frames, dtype=np.int64)), rr.TimeColumn("capture_time", duration=np.array(times))]
+                    index[key] = [
+                        rr.TimeColumn("frame", sequence=np.array(frames, dtype=np.int64)),
+                        rr.TimeColumn("capture_time", duration=np.array(times)),
+                    ]
                 self.send_rows(path, index[key], np.ones(len(values), dtype=np.int64), rr.Scalars, scalars=np.array(values))
         self.series.clear()
 
@@ -370,7 +389,9 @@ class RerunSink:
         if not 0 < settings.image_scale <= 1:
             raise StereotrackError(f"image scale must be in (0, 1], got {settings.image_scale}")
         # The size each camera's image is logged at; 2x smaller: bilinear is the 2x2 mean, and cheaper than INTER_AREA.
-        self._image_sizes = [(max(1, round(c.width * settings.image_scale)), max(1, round(c.height * settings.image_scale))) for c in rig.cameras]
+        self._image_sizes = [
+            (max(1, round(c.width * settings.image_scale)), max(1, round(c.height * settings.image_scale))) for c in rig.cameras
+        ]
         self._resize = cv2.INTER_LINEAR if settings.image_scale >= 0.5 else cv2.INTER_AREA
         self._children: list[subprocess.Popen] = []
         self._n_written = 0
@@ -420,7 +441,9 @@ class RerunSink:
         if out.spawn:
             port = _free_port()
             self._children.append(
-                _start_viewer_process(["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True)
+                _start_viewer_process(
+                    ["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True
+                )
             )
             sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{port}/proxy"))
         if out.serve:
@@ -453,15 +476,24 @@ class RerunSink:
             rec.log(path, rr.Transform3D(translation=cam.t, mat3x3=cam.R, relation=rr.TransformRelation.ChildFromParent), static=True)
             rec.log(
                 path,
-                rr.Pinhole(image_from_camera=cam.K, resolution=[cam.width, cam.height], camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.12),
+                rr.Pinhole(
+                    image_from_camera=cam.K,
+                    resolution=[cam.width, cam.height],
+                    camera_xyz=rr.ViewCoordinates.RDF,
+                    image_plane_distance=0.12,
+                ),
                 static=True,
             )
             masks = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0, 0))]
-            masks += [rr.AnnotationInfo(id=i + 1, label=t.name, color=(*self._colours[t.name], 140)) for i, t in enumerate(self.config.targets)]
+            masks += [
+                rr.AnnotationInfo(id=i + 1, label=t.name, color=(*self._colours[t.name], 140)) for i, t in enumerate(self.config.targets)
+            ]
             rec.log(f"{path}/mask", rr.AnnotationContext(masks), static=True)
         rec.log(
             "world/particles",
-            rr.AnnotationContext([rr.AnnotationInfo(id=SEQUENTIAL, label="sequential"), rr.AnnotationInfo(id=ABDUCTIVE, label="abductive")]),
+            rr.AnnotationContext(
+                [rr.AnnotationInfo(id=SEQUENTIAL, label="sequential"), rr.AnnotationInfo(id=ABDUCTIVE, label="abductive")]
+            ),
             static=True,
         )
         # What never changes is logged once, static; the batches carry only what changes from frame to frame.
@@ -609,7 +641,10 @@ class RerunSink:
         """Each camera's image, scaled, as JPEG bytes (OpenCV's libjpeg-turbo; it releases the GIL while it encodes)."""
         import cv2
 
-        return [cv2.imencode(".jpg", self._scaled(img, ci), self._jpeg_params)[1] for ci, img in enumerate(result.frame.images[: len(self.rig.cameras)])]
+        return [
+            cv2.imencode(".jpg", self._scaled(img, ci), self._jpeg_params)[1]
+            for ci, img in enumerate(result.frame.images[: len(self.rig.cameras)])
+        ]
 
     def _scaled(self, img: np.ndarray, ci: int) -> np.ndarray:
         """A camera's image at the size it is logged at (VizSettings.image_scale)."""
@@ -649,12 +684,30 @@ class RerunSink:
         radii = np.array([self._radius(t.target) for t in tracks], dtype=float)
         colours = np.array([self._packed(t.target) for t in tracks], dtype=np.uint32)
         labels = [f"#{t.track_id} {t.target}" for t in tracks]
-        self._rows("world/tracks", index, n_trk, rr.Ellipsoids3D, centers=centres, half_sizes=np.repeat(radii[:, None], 3, axis=1), colors=colours, labels=labels)
+        self._rows(
+            "world/tracks",
+            index,
+            n_trk,
+            rr.Ellipsoids3D,
+            centers=centres,
+            half_sizes=np.repeat(radii[:, None], 3, axis=1),
+            colors=colours,
+            labels=labels,
+        )
         cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
         evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
         evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
         halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
-        self._rows("world/tracks/covariance", index, n_trk, rr.Ellipsoids3D, centers=centres, half_sizes=halves, quaternions=quaternions_xyzw(evecs), colors=colours)
+        self._rows(
+            "world/tracks/covariance",
+            index,
+            n_trk,
+            rr.Ellipsoids3D,
+            centers=centres,
+            half_sizes=halves,
+            quaternions=quaternions_xyzw(evecs),
+            colors=colours,
+        )
 
         # Fading trails: one two-point strip per step, alpha falling with age.
         first_trk = np.cumsum(n_trk) - n_trk
@@ -710,8 +763,14 @@ class RerunSink:
             path = f"world/cameras/{cam.name}"
             have = [i for i, b in enumerate(batch) if ci < len(b.jpegs)]
             if have:
-                idx = index if len(have) == n else [rr.TimeColumn("frame", sequence=frames[have]), rr.TimeColumn("capture_time", duration=times[have])]
-                self._rows(f"{path}/image", idx, np.ones(len(have), dtype=np.int64), rr.EncodedImage, blob=[batch[i].jpegs[ci] for i in have])
+                idx = (
+                    index
+                    if len(have) == n
+                    else [rr.TimeColumn("frame", sequence=frames[have]), rr.TimeColumn("capture_time", duration=times[have])]
+                )
+                self._rows(
+                    f"{path}/image", idx, np.ones(len(have), dtype=np.int64), rr.EncodedImage, blob=[batch[i].jpegs[ci] for i in have]
+                )
             uv, depth, vis = self._visible(cam, both)
             o_vis = vis[:n_objs]
             half = np.maximum(cam.K[0, 0] * obj_radii[o_vis] / depth[:n_objs][o_vis], half_window)
@@ -758,7 +817,9 @@ class RerunSink:
         import pyarrow as pa
 
         strip_type = self.rr.components.LineStrip3DBatch._ARROW_DATATYPE
-        points = pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(ends, dtype=np.float32).reshape(-1)), type=strip_type.value_type)
+        points = pa.FixedSizeListArray.from_arrays(
+            pa.array(np.ascontiguousarray(ends, dtype=np.float32).reshape(-1)), type=strip_type.value_type
+        )
         return pa.ListArray.from_arrays(pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)), points, type=strip_type)
 
     def _packed(self, name: str) -> int:
@@ -977,27 +1038,46 @@ def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--rrd", metavar="FILE", type=Path, help="save the viewer log to FILE.rrd; open it later with 'rerun FILE.rrd'")
     g.add_argument("--spawn", action="store_true", help="start a rerun viewer window on this machine")
     g.add_argument("--connect", metavar="URL", help="stream to a rerun viewer elsewhere: rerun+http://HOST:9876/proxy (or HOST:PORT)")
-    g.add_argument("--serve", action="store_true", help="serve gRPC + a web viewer for a browser; keeps serving after a finished run until Ctrl-C")
-    g.add_argument("--bind", metavar="ADDR", default="127.0.0.1", help="address --serve listens on (default 127.0.0.1; 0.0.0.0 for every interface)")
+    g.add_argument(
+        "--serve", action="store_true", help="serve gRPC + a web viewer for a browser; keeps serving after a finished run until Ctrl-C"
+    )
+    g.add_argument(
+        "--bind", metavar="ADDR", default="127.0.0.1", help="address --serve listens on (default 127.0.0.1; 0.0.0.0 for every interface)"
+    )
     g.add_argument("--serve-port", metavar="PORT", type=_positive_int, default=9876, help="gRPC port for --serve (default 9876)")
     g.add_argument("--web-port", metavar="PORT", type=_positive_int, default=9090, help="web viewer port for --serve (default 9090)")
     g.add_argument("--viz-every", metavar="N", type=_positive_int, default=VizSettings.every, help="log every N-th frame (default 1)")
     g.add_argument(
-        "--viz-max-particles", metavar="K", type=_positive_int, default=VizSettings.max_particles,
+        "--viz-max-particles",
+        metavar="K",
+        type=_positive_int,
+        default=VizSettings.max_particles,
         help=f"log at most K particles per target and frame, a random subsample (default {VizSettings.max_particles})",
     )
     g.add_argument(
-        "--viz-jpeg-quality", metavar="Q", type=_quality, default=VizSettings.jpeg_quality,
+        "--viz-jpeg-quality",
+        metavar="Q",
+        type=_quality,
+        default=VizSettings.jpeg_quality,
         help=f"JPEG quality of logged images, 1..100; 0 logs raw pixels (default {VizSettings.jpeg_quality})",
     )
     g.add_argument(
-        "--viz-image-scale", metavar="S", type=_scale, default=VizSettings.image_scale,
+        "--viz-image-scale",
+        metavar="S",
+        type=_scale,
+        default=VizSettings.image_scale,
         help=f"log camera images at S times their size, 0 < S <= 1; overlays stay in the camera's pixels (default {VizSettings.image_scale})",
     )
     g.add_argument("--no-images", action="store_true", help="do not log camera images")
     g.add_argument("--viz-masks", action="store_true", help="log the colour masks as a layer over each image")
     g.add_argument("--viz-rays", action="store_true", help="log the abduction's viewing rays")
-    g.add_argument("--viz-trail", metavar="SECONDS", type=_seconds, default=VizSettings.trail_seconds, help="length of the tracks' fading trails (default 2)")
+    g.add_argument(
+        "--viz-trail",
+        metavar="SECONDS",
+        type=_seconds,
+        default=VizSettings.trail_seconds,
+        help="length of the tracks' fading trails (default 2)",
+    )
 
 
 def viz_settings_from_args(args: argparse.Namespace, seed: int = 0, live: bool = False) -> VizSettings:
@@ -1042,4 +1122,6 @@ def make_viz_sink(
         return None
     if outputs.connect:
         normalise_connect_url(outputs.connect)  # a bad URL fails before any work starts
-    return RerunSink(rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed, live=live), truth=truth, recording_name=recording_name)
+    return RerunSink(
+        rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed, live=live), truth=truth, recording_name=recording_name
+    )

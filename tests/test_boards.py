@@ -29,7 +29,11 @@ def small_rig() -> Rig:
         ({"type": "circles", "squares": [7, 5], "square": 0.03}, "type", "chessboard, charuco"),
         ({"type": "chessboard", "squares": [7], "square": 0.03}, "squares", "count squares"),
         ({"type": "chessboard", "squares": [7, 5], "square": 30}, "square", "metres"),
-        ({"type": "charuco", "squares": [7, 5], "square": 0.03, "marker": 0.04, "dictionary": "DICT_5X5_100"}, "marker", "smaller than the square"),
+        (
+            {"type": "charuco", "squares": [7, 5], "square": 0.03, "marker": 0.04, "dictionary": "DICT_5X5_100"},
+            "marker",
+            "smaller than the square",
+        ),
         ({"type": "charuco", "squares": [7, 5], "square": 0.03, "marker": 0.02, "dictionary": "DICT_9X9_1"}, "dictionary", "unknown"),
         ({"type": "charuco", "squares": [12, 10], "square": 0.03, "marker": 0.02, "dictionary": "DICT_4X4_50"}, "dictionary", "needs 60"),
     ],
@@ -73,11 +77,17 @@ def test_printable_board_true_size_dpi_and_redetected(tmp_path, board):
 
 def test_board_command_writes_and_checks(tmp_path):
     out = tmp_path / "board.png"
-    r = subprocess.run([sys.executable, "-m", "stereotrack", "board", "calib/board.yaml", "--out", str(out), "--dpi", "150"], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "stereotrack", "board", "calib/board.yaml", "--out", str(out), "--dpi", "150"],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     assert "self-check: all 24 corners found" in r.stdout
     assert png_dpi(out) == pytest.approx(150, abs=0.02)
-    r = subprocess.run([sys.executable, "-m", "stereotrack", "board", "calib/board.yaml", "--out", str(out), "--dpi", "10"], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "stereotrack", "board", "calib/board.yaml", "--out", str(out), "--dpi", "10"], capture_output=True, text=True
+    )
     assert r.returncode == 2 and r.stderr.startswith("error: --dpi") and r.stderr.count("\n") == 1
 
 

@@ -60,7 +60,9 @@ def test_real_left_focal_with_fixed_aspect_matches_reference():
     assert abs(K[0, 0] - 535.916) < 3.0
     # our default window (a quarter of the corner spacing) also lands within 3 px, and within 1 px of Caltech's 533.5
     views = views_from_images(OPENCV_BOARD, [str(REAL / "left*.jpg"), str(REAL / "right*.jpg")], progress=False)
-    rms_default, K, *_ = calibrate_intrinsics(OPENCV_BOARD, [row[0] for row in views.detections], (640, 480), flags=cv2.CALIB_FIX_ASPECT_RATIO)
+    rms_default, K, *_ = calibrate_intrinsics(
+        OPENCV_BOARD, [row[0] for row in views.detections], (640, 480), flags=cv2.CALIB_FIX_ASPECT_RATIO
+    )
     assert abs(K[0, 0] - 535.916) < 3.0 and abs(K[0, 0] - 533.5) < 1.0
     assert rms_default < rms  # the smaller window fits the corners better
 
@@ -266,7 +268,17 @@ def test_zero_detections_say_what_to_check(tmp_path):
         for i in range(6):
             cv2.imwrite(str(tmp_path / cam / f"{i:03d}.png"), blank)
     save_board(CHESS, tmp_path / "board.yaml")
-    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", tmp_path / "a", tmp_path / "b", "--out", tmp_path / "x.yaml", "--no-progress")
+    r = run_cli(
+        "calibrate",
+        "--board",
+        tmp_path / "board.yaml",
+        "--images",
+        tmp_path / "a",
+        tmp_path / "b",
+        "--out",
+        tmp_path / "x.yaml",
+        "--no-progress",
+    )
     msg = one_line_error(r)
     assert "was not found in any of 6 images of cam0" in msg and "squares in board.yaml" in msg
 
@@ -328,8 +340,18 @@ def test_calibrate_command_from_live_cameras(tmp_path, rendered):
                 n += 1
     save_board(board, tmp_path / "board.yaml")
     out = tmp_path / "live.yaml"
-    r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--cam0", folder / "cam0.mkv", "--cam1", folder / "cam1.mkv",
-                "--out", out, "--no-progress")
+    r = run_cli(
+        "calibrate",
+        "--board",
+        tmp_path / "board.yaml",
+        "--cam0",
+        folder / "cam0.mkv",
+        "--cam1",
+        folder / "cam1.mkv",
+        "--out",
+        out,
+        "--no-progress",
+    )
     assert r.returncode == 0, r.stderr
     est = load_rig(out)
     assert 5 <= est.quality["views_used"] <= 6, r.stdout
@@ -350,8 +372,10 @@ def test_three_cameras_are_chained_pairwise():
     # so cam2 is linked through cam1
     seen = [range(0, 12), range(0, 16), range(4, 16)]
     blank = np.full((480, 640, 3), 120, np.uint8)
-    pairs = [FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) if i in seen[c] else blank for c, im in enumerate(v)), (0.0,) * 3)
-             for i, v in enumerate(images)]
+    pairs = [
+        FramePair(i, tuple(cv2.cvtColor(im, cv2.COLOR_GRAY2BGR) if i in seen[c] else blank for c, im in enumerate(v)), (0.0,) * 3)
+        for i, v in enumerate(images)
+    ]
     views = views_from_frames(CHARUCO, pairs, rig.names, min_new=0.0, progress=False)
     cal = calibrate(views, CHARUCO)
     assert [p["cameras"] for p in cal.report["pairs"]] == [["cam0", "cam1"], ["cam1", "cam2"]]

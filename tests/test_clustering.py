@@ -1,8 +1,7 @@
 import numpy as np
+from scene_helpers import RADIUS, default_rig
 
 from stereotrack.clustering import ClusterSettings, cluster_particles, systematic_indices
-
-from scene_helpers import RADIUS, default_rig
 
 
 def ball_cloud(rng, centre, n, rig):

@@ -1,9 +1,8 @@
 import numpy as np
+from scene_helpers import RADIUS, default_rig, disc_masks
 
 from stereotrack.abduction import find_blobs
 from stereotrack.discs import depth_on_ray, union_mismatch
-
-from scene_helpers import RADIUS, default_rig, disc_masks
 
 
 def scene(lateral: float):

@@ -1,10 +1,9 @@
 import numpy as np
+from scene_helpers import RADIUS, default_rig, disc_masks
 
 from stereotrack.abduction import find_blobs
 from stereotrack.explain import ExplainSettings, explain
 from stereotrack.results import Object3D
-
-from scene_helpers import RADIUS, default_rig, disc_masks
 
 
 def obj(position, along=None, sigma=0.005, mass=0.25):

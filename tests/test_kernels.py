@@ -7,13 +7,11 @@ import sys
 import cv2
 import numpy as np
 import pytest
+from scene_helpers import RADIUS, default_rig
 
 from stereotrack import kernels
 from stereotrack.camera import stacked_kernel_arrays
 from stereotrack.tracks import motion_model
-
-from scene_helpers import RADIUS, default_rig
-
 
 STEP_AFTER_WARM_UP = """
 import json
@@ -152,7 +150,9 @@ def test_merge_one_ball_clusters_merges_a_depth_elongated_ball_and_keeps_touchin
     means = np.array([ball - 0.75 * RADIUS * ray, ball + 0.75 * RADIUS * ray, ball + np.array([2.05 * RADIUS, 0, 0])])
     mass = np.array([0.2, 0.3, 0.5])
     labels = np.array([0, 1, 2, -1, 1])
-    kept, out_means, out_mass, out_labels = kernels.merge_one_ball_clusters(means, mass, labels, RADIUS, *stacked_kernel_arrays(rig.cameras))
+    kept, out_means, out_mass, out_labels = kernels.merge_one_ball_clusters(
+        means, mass, labels, RADIUS, *stacked_kernel_arrays(rig.cameras)
+    )
     assert list(kept) == [True, False, True]
     assert np.allclose(out_means[0], (0.2 * means[0] + 0.3 * means[1]) / 0.5) and np.allclose(out_mass, [0.5, 0.5])
     assert list(out_labels) == [0, 0, 1, -1, 0]

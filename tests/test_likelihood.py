@@ -56,11 +56,13 @@ def test_hidden_by_balls_is_the_shadow_behind_a_ball_only():
     R, t = look_at((0, 0, 0), (0, 0, 1))
     cam = Camera("c", (64, 48), K, np.zeros(5), R, t)
     ball = np.array([[0.0, 0.0, 1.0]])
-    pts = np.array([
-        [0.0, 0.0, 2.0],    # straight behind the ball: hidden
-        [0.02, 0.0, 1.5],   # behind, inside the shadow cone: hidden
-        [0.0, 0.0, 0.5],    # in front of the ball: seen
-        [0.0, 0.0, 1.01],   # inside the ball itself: not hidden by it
-        [0.2, 0.0, 2.0],    # behind but off to the side: seen
-    ])
+    pts = np.array(
+        [
+            [0.0, 0.0, 2.0],  # straight behind the ball: hidden
+            [0.02, 0.0, 1.5],  # behind, inside the shadow cone: hidden
+            [0.0, 0.0, 0.5],  # in front of the ball: seen
+            [0.0, 0.0, 1.01],  # inside the ball itself: not hidden by it
+            [0.2, 0.0, 2.0],  # behind but off to the side: seen
+        ]
+    )
     assert list(hidden_by_balls(cam, pts, ball, np.array([0.035]))) == [True, True, False, False, False]

@@ -1,11 +1,10 @@
 import numpy as np
 import pytest
+from scene_helpers import RADIUS, default_rig, disc_masks
 
 from stereotrack.abduction import find_blobs
 from stereotrack.config import TrackerSettings
 from stereotrack.population import Population, split_counts
-
-from scene_helpers import RADIUS, default_rig, disc_masks
 
 BALLS = np.array([[-0.2, 1.3, 0.0], [0.25, 1.9, 0.1]])
 
@@ -76,7 +75,6 @@ def test_alpha_one_puts_every_particle_on_a_blob_ray():
         assert (~on_disc).sum() <= share * 500 * 0.5
 
 
-
 def test_crossing_particles_find_a_new_ball_in_its_first_frame():
     """Along the rays a ball that just appeared gets a few particles per ball-length; at the crossing of
     its two rays it gets a share of them all (a juggled ball coming out of the hand)."""
@@ -91,6 +89,7 @@ def test_crossing_particles_find_a_new_ball_in_its_first_frame():
     assert weight[0.25] > 3 * weight[0.0]
     assert weight[0.25] > 0.02  # above the clusters' minimum mass (0.01): an object this very frame
 
+
 def test_exclusion_kills_particles_of_one_track_inside_another_ball():
     from stereotrack.population import TrackedBalls
 
@@ -101,7 +100,14 @@ def test_exclusion_kills_particles_of_one_track_inside_another_ball():
     pop.step(integrals, blobs, dt=1 / 30)
     # Pretend every particle follows track 1 while track 2's ball sits on ball 0.
     pop.follow_tracks(np.zeros((1000, 3)), np.full(1000, 1))
-    pop.state = type(pop.state)(np.repeat(BALLS[:1], 1000, axis=0), pop.state.velocities, np.full(1000, 1e-3), pop.state.likelihoods, pop.state.abductive, pop.state.owners)
+    pop.state = type(pop.state)(
+        np.repeat(BALLS[:1], 1000, axis=0),
+        pop.state.velocities,
+        np.full(1000, 1e-3),
+        pop.state.likelihoods,
+        pop.state.abductive,
+        pop.state.owners,
+    )
     balls = TrackedBalls(BALLS[:1], np.array([RADIUS]), np.array([2]), np.array([False]))
     state = pop.step(integrals, blobs, dt=1 / 30, balls=balls)
     assert state.weights.sum() == pytest.approx(1.0)

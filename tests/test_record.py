@@ -91,7 +91,10 @@ def test_record_60s_session_keeps_every_paired_frame(tmp_path):
 def start_recording(out: Path, *extra):
     proc = subprocess.Popen(
         stereotrack("record", "--cam0", "sim:pendulum4", "--cam1", "sim:pendulum4", *SIM, "--out", str(out), *extra),
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     deadline = time.monotonic() + 60
     while rows_now(out) < 15:  # let it record for a while
@@ -135,7 +138,10 @@ def test_a_camera_that_stops_ends_the_recording_within_3s_and_keeps_it(tmp_path)
     out = tmp_path / "rec"
     proc = subprocess.Popen(
         stereotrack("record", "--cam0", "sim:pendulum4", "--cam1", "sim:pendulum4,stop=1.5", *SIM, "--out", str(out)),
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     last_rows, last_growth = 0, time.monotonic()
     while proc.poll() is None:
@@ -149,7 +155,9 @@ def test_a_camera_that_stops_ends_the_recording_within_3s_and_keeps_it(tmp_path)
     assert ended - last_growth < 3.0  # the issue's bound: exit within 3 s of the last frame
     error_lines = [line for line in stderr.splitlines() if line.startswith("error:")]
     assert len(error_lines) == 1 and "Traceback" not in stderr
-    assert re.search(r"camera cam1 \(sim:pendulum4,stop=1.5\) delivered no frame for 2.0 s .*recording stopped, \d+ pairs kept in", error_lines[0])
+    assert re.search(
+        r"camera cam1 \(sim:pendulum4,stop=1.5\) delivered no frame for 2.0 s .*recording stopped, \d+ pairs kept in", error_lines[0]
+    )
     rec = open_recording(out)
     assert 30 <= rec.n_frames <= 46 and len(list(rec.frames())) == rec.n_frames
 
@@ -175,7 +183,9 @@ def test_record_with_a_calibration_of_the_wrong_size_stops_with_a_message(tmp_pa
     K = intrinsics_from_fov(640, 480, 60.0)
     rig = Rig(tuple(Camera(f"cam{i}", (640, 480), K, np.zeros(5), np.eye(3), np.array([0.1 * i, 0, 0])) for i in range(2)))
     save_rig(rig, tmp_path / "calib.yaml")
-    res = run("record", "--cam0", "sim:dots", "--cam1", "sim:dots", *SIM, "--calib", str(tmp_path / "calib.yaml"), "--out", str(tmp_path / "r"))
+    res = run(
+        "record", "--cam0", "sim:dots", "--cam1", "sim:dots", *SIM, "--calib", str(tmp_path / "calib.yaml"), "--out", str(tmp_path / "r")
+    )
     assert res.returncode == 2 and "is 640x480 but the cameras deliver 320x240" in res.stderr, res.stderr
 
 
@@ -198,8 +208,21 @@ def test_cameras_says_clearly_when_there_are_none():
 
 def test_live_tracks_simulated_cameras_and_records_what_it_tracked(tmp_path):
     out, rec_dir = tmp_path / "tracks.csv", tmp_path / "rec"
-    res = run("live", "--cam0", "sim:pendulum4", "--cam1", "sim:pendulum4", *SIM, "--seconds", "4", "--quiet",
-              "--out", str(out), "--record", str(rec_dir))
+    res = run(
+        "live",
+        "--cam0",
+        "sim:pendulum4",
+        "--cam1",
+        "sim:pendulum4",
+        *SIM,
+        "--seconds",
+        "4",
+        "--quiet",
+        "--out",
+        str(out),
+        "--record",
+        str(rec_dir),
+    )
     assert res.returncode == 0, res.stderr
     m = re.search(r"tracked (\d+) frames .*latency median (\d+) ms, 95% (\d+) ms", res.stderr)
     assert m, res.stderr
@@ -218,4 +241,6 @@ def test_live_tracks_simulated_cameras_and_records_what_it_tracked(tmp_path):
 
 def test_live_without_calibration_for_real_cameras_says_what_to_pass(tmp_path):
     res = run("live", "--cam0", "0", "--cam1", "2")
-    assert res.returncode == 2 and res.stderr.startswith("error: live tracking needs the cameras' calibration: pass --calib FILE"), res.stderr
+    assert res.returncode == 2 and res.stderr.startswith("error: live tracking needs the cameras' calibration: pass --calib FILE"), (
+        res.stderr
+    )

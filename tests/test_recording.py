@@ -198,7 +198,12 @@ def test_error_is_one_line_from_the_command_line(tmp_path):
     folder = tmp_path / "rec"
     write_recording(folder, 2)
     (folder / "meta.yaml").write_text("cameras: [cam0\n")
-    out = subprocess.run([sys.executable, "-m", "stereotrack", "track", str(folder)], capture_output=True, text=True, cwd=tmp_path,
-                         env=dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent)))
+    out = subprocess.run(
+        [sys.executable, "-m", "stereotrack", "track", str(folder)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent)),
+    )
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and out.stderr.startswith("error: ") and "not valid YAML" in out.stderr

@@ -34,6 +34,7 @@ def run_pairer(streams, rng, tolerance=0.5 * PERIOD, max_pending=8, max_delay=0.
         pairs += pairer.push(cam, t, k)  # the "image" is the frame index, to check who was paired
     return pairer, pairs
 
+
 # --------------------------------------------------------------------------- pairing logic
 
 
@@ -120,7 +121,7 @@ def test_paced_replay_sleeps_to_the_recorded_timestamps():
     times = np.array([0.0, 0.033, 0.070, 0.100, 0.300])
     clock = FakeClock()
     seen = []
-    for pair in paced(pairs_of(times), np.column_stack([times, times]), clock=clock, sleep=clock.sleep):
+    for _pair in paced(pairs_of(times), np.column_stack([times, times]), clock=clock, sleep=clock.sleep):
         seen.append(clock.now - 100.0)
     np.testing.assert_allclose(seen, times, atol=1e-12)
 
@@ -129,7 +130,9 @@ def test_paced_replay_skips_what_a_slow_consumer_missed():
     times = np.arange(30) * PERIOD
     clock = FakeClock()
     skipped, yielded = [], []
-    for pair in paced(pairs_of(times), np.column_stack([times, times]), clock=clock, sleep=clock.sleep, on_skip=lambda p: skipped.append(p.index)):
+    for pair in paced(
+        pairs_of(times), np.column_stack([times, times]), clock=clock, sleep=clock.sleep, on_skip=lambda p: skipped.append(p.index)
+    ):
         yielded.append(pair.index)
         clock.now += 0.1  # the consumer needs 3 frame periods per pair
     assert len(yielded) + len(skipped) == 30
@@ -137,7 +140,7 @@ def test_paced_replay_skips_what_a_slow_consumer_missed():
     assert np.diff(yielded).max() <= 4
     clock = FakeClock()
     slow_all = []
-    for pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
+    for _pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
         slow_all.append(pair.index)
         clock.now += 0.1
     assert slow_all == list(range(30))
@@ -198,13 +201,16 @@ def test_simulated_views_of_one_scene_are_different_images():
     b.release()
 
 
-@pytest.mark.parametrize("spec, words", [
-    ("sim:", "name a scene"),
-    ("sim:dots,speed=3", "unknown option 'speed'"),
-    ("sim:dots,drop=x", "needs a float"),
-    ("sim:dots,drop=1.5", "probability"),
-    ("no/such/video.mkv", "not a device index"),
-])
+@pytest.mark.parametrize(
+    "spec, words",
+    [
+        ("sim:", "name a scene"),
+        ("sim:dots,speed=3", "unknown option 'speed'"),
+        ("sim:dots,drop=x", "needs a float"),
+        ("sim:dots,drop=1.5", "probability"),
+        ("no/such/video.mkv", "not a device index"),
+    ],
+)
 def test_bad_device_specs_are_refused_with_a_clear_message(spec, words):
     with pytest.raises(StereotrackError, match=words):
         open_device(spec)

@@ -284,11 +284,15 @@ def test_motion_blur_smears_a_fast_ball_along_its_motion():
     fast = Line((-0.6, 1.5, 0.0), (0.6, 1.5, 0.0), period=0.8)  # 3 m/s across the image
     widths = {}
     for blur in (1, 8):
-        spec = SceneSpec("b", (BallSpec(fast, colour=(40, 200, 40)),), RigSpec(width=320, height=240), n_frames=4, noise=0.0, blur=blur, exposure=1.0)
+        spec = SceneSpec(
+            "b", (BallSpec(fast, colour=(40, 200, 40)),), RigSpec(width=320, height=240), n_frames=4, noise=0.0, blur=blur, exposure=1.0
+        )
         renderer = SceneRenderer(spec)
         images, truth = renderer.render(3)
         # Where the image differs from the empty background: the ball and its streak.
-        diff = np.abs(images[0].astype(int) - SceneRenderer(dataclasses.replace(spec, balls=())).render(3)[0][0].astype(int)).sum(axis=2) > 6
+        diff = (
+            np.abs(images[0].astype(int) - SceneRenderer(dataclasses.replace(spec, balls=())).render(3)[0][0].astype(int)).sum(axis=2) > 6
+        )
         ys, xs = np.nonzero(diff)
         widths[blur] = (xs.max() - xs.min(), ys.max() - ys.min())
         uv, _ = renderer.rig.cameras[0].project(np.array(truth[0][1:4])[None])

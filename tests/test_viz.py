@@ -74,7 +74,7 @@ def make_result(rig: Rig, frame: int, rng: np.random.Generator, n_particles: int
         labels[::10] = -1  # a few unclustered particles
         abductive = rng.random(len(pos)) < 0.2
         particles.append(ParticleSet(target.name, pos, np.full(len(pos), 1 / len(pos)), abductive, labels))
-        for k, i in enumerate(mine):
+        for _k, i in enumerate(mine):
             est = balls[i] + rng.normal(0, 0.002, 3)
             objects.append(Object3D(target.name, est, np.eye(3) * 1e-4, 1 / len(mine), n_particles // len(mine)))
             cov = np.diag([4e-4, 1e-4, 2.5e-5])
@@ -84,8 +84,13 @@ def make_result(rig: Rig, frame: int, rng: np.random.Generator, n_particles: int
     pair = FramePair(frame, render(rig, balls), (frame / 30.0, frame / 30.0 + 0.001))
     masks = {(t.name, c.name): np.zeros((H, W), np.uint8) for t in TARGETS for c in rig.cameras}
     return FrameResult(
-        pair, tuple(particles), tuple(objects), tuple(tracks), masks=masks,
-        timings_ms={"masks": 1.5, "particles": 4.0, "clustering": 2.0}, latency_s=0.02,
+        pair,
+        tuple(particles),
+        tuple(objects),
+        tuple(tracks),
+        masks=masks,
+        timings_ms={"masks": 1.5, "particles": 4.0, "clustering": 2.0},
+        latency_s=0.02,
     )
 
 
@@ -169,7 +174,9 @@ def test_rrd_verifies_and_holds_the_scene_entities(run12):
         expected |= {f"world/cameras/{cam}{s}" for s in ("", "/image", "/mask", "/objects", "/tracks")}
     assert expected <= set(rows), sorted(expected - set(rows))
     # Two timelines: frame numbers and capture time in seconds since the first frame.
-    out = subprocess.run([RERUN, "rrd", "print", "-vvv", "--entity", "/stats/counts/confirmed_tracks", str(path)], capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [RERUN, "rrd", "print", "-vvv", "--entity", "/stats/counts/confirmed_tracks", str(path)], capture_output=True, text=True, timeout=60
+    )
     assert "capture_time" in out.stdout and "index_name: frame" in out.stdout and "PT0.1S" in out.stdout  # frame 3 at 3/30 s
     import rerun.chunk
 
@@ -270,9 +277,13 @@ def test_raw_images_masks_and_rays(tmp_path):
     result.masks[("green", "cam1")][10:20, 30:40] = 1
     cam = rig["cam1"]
     o, d = cam.rays(np.array([[100.0, 120.0], [200.0, 80.0]]))
-    result = FrameResult(result.frame, result.particles, result.objects, result.tracks, (Rays("green", "cam1", o, d, np.zeros((2, 2))),), result.masks)
+    result = FrameResult(
+        result.frame, result.particles, result.objects, result.tracks, (Rays("green", "cam1", o, d, np.zeros((2, 2))),), result.masks
+    )
     path = tmp_path / "raw.rrd"
-    with RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(jpeg_quality=0, image_scale=1.0, masks=True, rays=True)) as sink:
+    with RerunSink(
+        rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(jpeg_quality=0, image_scale=1.0, masks=True, rays=True)
+    ) as sink:
         sink.write(result)
     rows = read_rrd(path)
     fmt = latest(rows["world/cameras/cam0/image"], "Image:format", 0)[0]
@@ -375,7 +386,9 @@ def test_serve_hosts_a_web_viewer_on_localhost(tmp_path):
 
     grpc_port, web_port = _free_ports(2)
     rig = make_rig()
-    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "s.rrd", serve=True, grpc_port=grpc_port, web_port=web_port, hold=False))
+    sink = RerunSink(
+        rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "s.rrd", serve=True, grpc_port=grpc_port, web_port=web_port, hold=False)
+    )
     try:
         sink.write(make_result(rig, 0, np.random.default_rng(0)))
         html = urllib.request.urlopen(f"http://127.0.0.1:{web_port}/", timeout=10).read().decode()
@@ -402,7 +415,9 @@ def _cli(*args, **kw):
 def small_recording(tmp_path_factory):
     folder = tmp_path_factory.mktemp("rec") / "pendulum"
     # 10 fps: played at its recorded pace (--realtime) it lasts 4 s, so even a loaded machine interrupts it midway.
-    out = _cli("synth", "pendulum4", "--frames", "40", "--fps", "10", "--width", "320", "--height", "240", "--out", str(folder), "--no-progress")
+    out = _cli(
+        "synth", "pendulum4", "--frames", "40", "--fps", "10", "--width", "320", "--height", "240", "--out", str(folder), "--no-progress"
+    )
     assert out.returncode == 0, out.stderr
     return folder
 
@@ -433,8 +448,21 @@ def test_track_command_rrd_matches_tracks_csv(small_recording, tmp_path):
 def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path):
     rrd = tmp_path / "cut.rrd"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "stereotrack", "track", str(small_recording), "--out", str(tmp_path / "t.csv"), "--rrd", str(rrd), "--realtime"],
-        stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled,
+        [
+            sys.executable,
+            "-m",
+            "stereotrack",
+            "track",
+            str(small_recording),
+            "--out",
+            str(tmp_path / "t.csv"),
+            "--rrd",
+            str(rrd),
+            "--realtime",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_ctrl_c_enabled,
     )
     try:
         for line in proc.stderr:  # non-terminal progress: a line every 10 %
@@ -457,7 +485,8 @@ def test_ctrl_c_on_track_command_leaves_a_readable_rrd(small_recording, tmp_path
 def test_served_viewer_dies_with_a_killed_tracker(tmp_path):
     grpc_port, web_port = _free_ports(2)
     script = tmp_path / "serve.py"
-    script.write_text(textwrap.dedent(f"""
+    script.write_text(
+        textwrap.dedent(f"""
         import sys, time
         sys.path.insert(0, {str(Path(__file__).parent)!r})
         from test_viz import make_rig, TARGETS
@@ -466,7 +495,8 @@ def test_served_viewer_dies_with_a_killed_tracker(tmp_path):
         sink = RerunSink(make_rig(), Config(targets=TARGETS), VizOutputs(serve=True, grpc_port={grpc_port}, web_port={web_port}))
         print(sink._children[0].pid, flush=True)
         time.sleep(120)
-    """))
+    """)
+    )
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         child = int(proc.stdout.readline())

@@ -51,11 +51,14 @@ def run(args: argparse.Namespace) -> int:
     det = BoardDetector(board).detect(small)
     found = 0 if det is None else len(det)
     h_mm, w_mm = (25.4 * n / args.dpi for n in img.shape)
-    print(f"wrote {args.out}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {args.dpi:g} dpi; "
-          f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm")
+    print(
+        f"wrote {args.out}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {args.dpi:g} dpi; "
+        f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm"
+    )
     if found != board.n_corners:
-        raise StereotrackError(f"self-check failed: only {found} of {board.n_corners} corners were found in {args.out}; "
-                               f"use a larger --dpi or larger squares")
+        raise StereotrackError(
+            f"self-check failed: only {found} of {board.n_corners} corners were found in {args.out}; use a larger --dpi or larger squares"
+        )
     print(f"self-check: all {found} corners found in the written image")
     print("print at 100% scale (no 'fit to page') and check a few squares with a ruler")
     return 0

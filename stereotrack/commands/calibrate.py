@@ -34,13 +34,17 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--board", default="calib/board.yaml", metavar="YAML", help="board description (default calib/board.yaml)")
-    parser.add_argument("--out", required=True, metavar="YAML", help="calibration file to write (e.g. calib/desk.yaml); the report goes beside it")
+    parser.add_argument(
+        "--out", required=True, metavar="YAML", help="calibration file to write (e.g. calib/desk.yaml); the report goes beside it"
+    )
     src = parser.add_argument_group("views (one of)")
     src.add_argument("--images", nargs="+", metavar="DIR", help="one image folder or quoted glob pattern per camera")
     src.add_argument("--recording", metavar="DIR", help="a recording folder")
     parser.add_argument("--names", nargs="+", metavar="NAME", help="camera names (default cam0 cam1 ..., or the recording's)")
     parser.add_argument("--max-views", type=int, default=30, help="recording / live: stop after this many views (default 30)")
-    parser.add_argument("--every", type=int, default=None, metavar="N", help="recording: look at every N-th frame pair (default: about 300 pairs in all)")
+    parser.add_argument(
+        "--every", type=int, default=None, metavar="N", help="recording: look at every N-th frame pair (default: about 300 pairs in all)"
+    )
     parser.add_argument("--seconds", type=float, default=None, help="live: stop after this many seconds")
     m = parser.add_argument_group("lens model and solving")
     m.add_argument("--fix-aspect", action="store_true", help="square pixels: fx = fy")
@@ -48,9 +52,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     m.add_argument("--fix-k3", action="store_true", help="no 6th-order radial term (steadier with few views)")
     m.add_argument("--rational", action="store_true", help="8-coefficient rational distortion model (wide-angle lenses)")
     m.add_argument("--refine", action="store_true", help="after the stereo step, refine intrinsics and extrinsics jointly (two cameras)")
-    m.add_argument("--subpix", type=int, default=None, metavar="PX", help="chessboard corner refinement half-window in pixels (default: a quarter of the corner spacing)")
-    parser.add_argument("--drop-worst", type=int, default=0, metavar="N", help="drop the N worst views (named in the report) and calibrate again")
-    parser.add_argument("--world-view", metavar="VIEW", help="use the board pose in this view as the world frame (origin at the board's corner, z up out of the board)")
+    m.add_argument(
+        "--subpix",
+        type=int,
+        default=None,
+        metavar="PX",
+        help="chessboard corner refinement half-window in pixels (default: a quarter of the corner spacing)",
+    )
+    parser.add_argument(
+        "--drop-worst", type=int, default=0, metavar="N", help="drop the N worst views (named in the report) and calibrate again"
+    )
+    parser.add_argument(
+        "--world-view",
+        metavar="VIEW",
+        help="use the board pose in this view as the world frame (origin at the board's corner, z up out of the board)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress line")
     add_camera_arguments(parser, required=False)
 
@@ -88,14 +104,28 @@ def run(args: argparse.Namespace) -> int:
         every = args.every or max(1, rec.n_frames // 300)
         if every < 1:
             raise StereotrackError(f"--every must be 1 or more, got {every}")
-        views = views_from_frames(board, rec.frames(), names, every=every, max_views=args.max_views, steady_px=2.0,
-                                  total=rec.n_frames, progress=progress, subpix_window=args.subpix)
+        views = views_from_frames(
+            board,
+            rec.frames(),
+            names,
+            every=every,
+            max_views=args.max_views,
+            steady_px=2.0,
+            total=rec.n_frames,
+            progress=progress,
+            subpix_window=args.subpix,
+        )
     else:
         views = _live_views(args, board, progress)
 
     options = CalibrationOptions(
-        fix_aspect=args.fix_aspect, zero_tangent=args.zero_tangent, fix_k3=args.fix_k3, rational=args.rational,
-        refine=args.refine, drop_worst=args.drop_worst, world_view=args.world_view,
+        fix_aspect=args.fix_aspect,
+        zero_tangent=args.zero_tangent,
+        fix_k3=args.fix_k3,
+        rational=args.rational,
+        refine=args.refine,
+        drop_worst=args.drop_worst,
+        world_view=args.world_view,
     )
     result = calibrate(views, board, options)
     save_rig(result.rig, args.out)
@@ -116,7 +146,9 @@ def _live_views(args, board, progress):
     specs = camera_specs(args)
     if args.names and len(args.names) != len(specs):
         raise StereotrackError(f"--names gives {len(args.names)} names for {len(specs)} cameras")
-    source = CameraPairSource(specs, camera_names=args.names, settings=capture_settings(args), queue_size=2, stall_timeout=args.stall_timeout)
+    source = CameraPairSource(
+        specs, camera_names=args.names, settings=capture_settings(args), queue_size=2, stall_timeout=args.stall_timeout
+    )
     start = time.monotonic()
 
     def frames():
@@ -128,7 +160,15 @@ def _live_views(args, board, progress):
     print("hold the board still in view of both cameras; move it to a new place and angle after each view is taken (Ctrl-C to finish)")
     with StopOnSignals(source):
         try:
-            return views_from_frames(board, frames(), source.camera_names, every=1, max_views=args.max_views, steady_px=2.0,
-                                     progress=progress, label="live: taking board views")
+            return views_from_frames(
+                board,
+                frames(),
+                source.camera_names,
+                every=1,
+                max_views=args.max_views,
+                steady_px=2.0,
+                progress=progress,
+                label="live: taking board views",
+            )
         finally:
             source.close()

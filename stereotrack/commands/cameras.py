@@ -60,15 +60,17 @@ def list_devices(probe_max: int) -> list[dict]:
             ok, frame = cap.read()
             if not ok or frame is None:
                 continue  # e.g. a UVC metadata node: opens, never delivers images
-            found.append({
-                "index": index,
-                "name": _device_name(index),
-                "width": frame.shape[1],
-                "height": frame.shape[0],
-                "fps": cap.get(cv2.CAP_PROP_FPS),
-                "fourcc": fourcc_text(cap.get(cv2.CAP_PROP_FOURCC)),
-                "backend": cap.getBackendName(),
-            })
+            found.append(
+                {
+                    "index": index,
+                    "name": _device_name(index),
+                    "width": frame.shape[1],
+                    "height": frame.shape[0],
+                    "fps": cap.get(cv2.CAP_PROP_FPS),
+                    "fourcc": fourcc_text(cap.get(cv2.CAP_PROP_FOURCC)),
+                    "backend": cap.getBackendName(),
+                }
+            )
         finally:
             cap.release()
     return found
@@ -98,10 +100,15 @@ def check_sync(specs: list[str], settings, seconds: float, stall_timeout: float)
     for cam in stats.cameras:
         print(f"{cam.name}: {cam.device}: {cam.frames} frames, {cam.fps:.1f} fps, {cam.unpaired} unpaired")
     if not spreads:
-        raise StereotrackError(f"no frame pair formed in {seconds:g} s (pairing tolerance {1000 * source.tolerance:.1f} ms): the cameras run at different rates or one is not delivering")
+        raise StereotrackError(
+            f"no frame pair formed in {seconds:g} s (pairing tolerance {1000 * source.tolerance:.1f} "
+            "ms): the cameras run at different rates or one is not delivering"
+        )
     s = np.asarray(spreads) * 1000
-    print(f"{len(s)} pairs at {size[0]}x{size[1]}, {len(s) / seconds:.1f} pairs/s; capture time difference within a pair: "
-          f"median {np.median(s):.1f} ms, worst {s.max():.1f} ms (tolerance {1000 * source.tolerance:.1f} ms)")
+    print(
+        f"{len(s)} pairs at {size[0]}x{size[1]}, {len(s) / seconds:.1f} pairs/s; capture time difference within a pair: "
+        f"median {np.median(s):.1f} ms, worst {s.max():.1f} ms (tolerance {1000 * source.tolerance:.1f} ms)"
+    )
     return 0
 
 
@@ -115,8 +122,10 @@ def run(args: argparse.Namespace) -> int:
 
     devices = list_devices(args.probe_max)
     if not devices:
-        print(f"no video devices found (probed indices 0..{args.probe_max}). Check that the webcams are plugged in, "
-              "that `v4l2-ctl --list-devices` shows them, and that you may read /dev/video* (the 'video' group).")
+        print(
+            f"no video devices found (probed indices 0..{args.probe_max}). Check that the webcams are plugged in, "
+            "that `v4l2-ctl --list-devices` shows them, and that you may read /dev/video* (the 'video' group)."
+        )
         return 1
     for d in devices:
         name = f"  {d['name']}" if d["name"] else ""

@@ -19,7 +19,9 @@ HELP = "learn a target colour's HSV range from a region of a frame"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="colour_command", metavar="ACTION", required=True)
-    learn = sub.add_parser("learn", help="learn a target from a region of a frame", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    learn = sub.add_parser(
+        "learn", help="learn a target from a region of a frame", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     learn.add_argument("recording", help="recording folder")
     learn.add_argument("--frame", type=int, default=0, help="frame number (default 0)")
     learn.add_argument("--camera", default=None, help="camera name (default: the first)")
@@ -85,6 +87,8 @@ def run_learn(args) -> int:
     info(f"target {t.name!r}: hsv_min {list(t.hsv_min)}, hsv_max {list(t.hsv_max)}, radius {t.radius} m -> {path}")
     info(f"covers {100 * learned.roi_coverage:.0f}% of the region and {100 * learned.background_coverage:.2f}% of the rest of the image")
     if learned.background_coverage > 0.01:
-        warn(f"the range also covers {100 * learned.background_coverage:.1f}% of the image outside the region: "
-             "the tracker may chase background of that colour; pick a tighter region, improve the lighting, or edit hsv_min/hsv_max")
+        warn(
+            f"the range also covers {100 * learned.background_coverage:.1f}% of the image outside the region: "
+            "the tracker may chase background of that colour; pick a tighter region, improve the lighting, or edit hsv_min/hsv_max"
+        )
     return 0

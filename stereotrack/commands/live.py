@@ -53,7 +53,9 @@ def simulated_scene(specs: list[str], settings):
         raise StereotrackError(f"the simulated cameras film different scenes ({', '.join(sorted(presets))}); give --calib and --config")
     preset = presets.pop()
     if preset == "dots":
-        raise StereotrackError("sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config")
+        raise StereotrackError(
+            "sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config"
+        )
     from ..synth import make_preset
 
     spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
@@ -78,7 +80,9 @@ class LatencySink:
         self.step_ms.append(result.timings_ms.get("step", 0.0))
         recent = self.latencies[-30:]
         self.tracks = len(result.confirmed)
-        self.progress.update(1, extra=f"latency {1000 * sorted(recent)[len(recent) // 2]:.0f} ms | {self.tracks} tracks | {self.source.stats.line()}")
+        self.progress.update(
+            1, extra=f"latency {1000 * sorted(recent)[len(recent) // 2]:.0f} ms | {self.tracks} tracks | {self.source.stats.line()}"
+        )
 
     def close(self) -> None:
         self.progress.close()
@@ -141,7 +145,9 @@ def run(args: argparse.Namespace) -> int:
         raise StereotrackError(f"{args.config}: no targets to track; add some under 'targets:'")
     for cam in rig.cameras:
         if settings.width and settings.height and tuple(cam.image_size) != (settings.width, settings.height):
-            raise StereotrackError(f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}")
+            raise StereotrackError(
+                f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}"
+            )
 
     sinks = []
     if args.out:
@@ -161,8 +167,16 @@ def run(args: argparse.Namespace) -> int:
         from ..config import config_to_dict
 
         # the pairs the tracker saw, with the rig and targets in force: a replay is exact
-        recorder = RecordingSink(out, [c.name for c in rig.cameras], settings.fps or 30.0, rig=rig, codec=args.codec,
-                                 source="live", targets=config_to_dict(config), extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))})
+        recorder = RecordingSink(
+            out,
+            [c.name for c in rig.cameras],
+            settings.fps or 30.0,
+            rig=rig,
+            codec=args.codec,
+            source="live",
+            targets=config_to_dict(config),
+            extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))},
+        )
         sinks.append(recorder)
 
     # queue_size=1: the tracker always gets the newest pair; latency cannot build up

@@ -26,9 +26,13 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, metavar="DIR", help="recording folder to create (recordings/NAME)")
-    parser.add_argument("--calib", metavar="FILE", help="calibration YAML to store with the recording (its cameras and image size must match)")
+    parser.add_argument(
+        "--calib", metavar="FILE", help="calibration YAML to store with the recording (its cameras and image size must match)"
+    )
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
-    parser.add_argument("--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec: ffv1 lossless .mkv (default) or mjpg .avi (smaller, lossy)")
+    parser.add_argument(
+        "--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec: ffv1 lossless .mkv (default) or mjpg .avi (smaller, lossy)"
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
     add_camera_arguments(parser)
 
@@ -37,9 +41,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..camera import load_rig
-    from ..console import info
+    from ..console import Progress, info
     from ..errors import StereotrackError
-    from ..console import Progress
     from ..recording import RecordingSink
     from ..sources import CameraPairSource, StopOnSignals
 
@@ -55,7 +58,12 @@ def run(args: argparse.Namespace) -> int:
     source = CameraPairSource(specs, settings=settings, rig=rig, queue_size=64, stall_timeout=args.stall_timeout)
     simulated = all(s.startswith("sim:") for s in specs)
     sink = RecordingSink(
-        out, source.camera_names, source.fps, rig=rig, codec=args.codec, overwrite=args.overwrite,
+        out,
+        source.camera_names,
+        source.fps,
+        rig=rig,
+        codec=args.codec,
+        overwrite=args.overwrite,
         source="simulated cameras" if simulated else "live",
         extra_meta={"devices": dict(zip(source.camera_names, specs))},
     )
@@ -83,5 +91,7 @@ def run(args: argparse.Namespace) -> int:
         kept = f"{sink.count} pairs kept in {out}" if sink.count else "nothing was recorded"
         raise StereotrackError(f"{error}; recording stopped, {kept}")
     if sink.count == 0:
-        raise StereotrackError("no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)")
+        raise StereotrackError(
+            "no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)"
+        )
     return 0

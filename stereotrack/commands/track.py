@@ -23,7 +23,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", help="target/tracker config YAML (default: the recording's own targets file)")
     p.add_argument("--calib", help="calibration YAML (default: the recording's calib.yaml)")
     p.add_argument("--out", help="tracks CSV to write (default: RECORDING/tracks.csv)")
-    p.add_argument("--method", choices=["particles", "baseline"], default="particles", help="the particle tracker (default) or the classic OpenCV pipeline")
+    p.add_argument(
+        "--method",
+        choices=["particles", "baseline"],
+        default="particles",
+        help="the particle tracker (default) or the classic OpenCV pipeline",
+    )
     p.add_argument("--start", type=int, default=0, help="first frame (default 0)")
     p.add_argument("--frames", type=int, help="track at most this many frames")
     p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
@@ -110,7 +115,9 @@ def track_recording(args, default_out: Path | None = None) -> int:
     summary = run_pipeline(frames, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
     for name, count in objects_seen.items():
         if count == 0:
-            warn(f"target {name!r} matched nothing in the whole recording: check its HSV range ('stereotrack colour learn') and the lighting")
+            warn(
+                f"target {name!r} matched nothing in the whole recording: check its HSV range ('stereotrack colour learn') and the lighting"
+            )
     info(
         f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
         f"tracker step median {summary.median_step_ms:.1f} ms): {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
@@ -124,8 +131,10 @@ def track_recording(args, default_out: Path | None = None) -> int:
             frames_range = list(range(args.start, args.start + summary.frames))
             truth_in = truth[(truth[:, 0] >= args.start) & (truth[:, 0] < args.start + summary.frames)]
             ev = evaluate(tracks, truth_in, frames=frames_range)
-            info(f"against the recording's truth.csv: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
-                 f"recall {ev.recall:.3f}, precision {ev.precision:.3f}, mean 3D error {ev.mean_error_mm:.1f} mm")
+            info(
+                f"against the recording's truth.csv: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
+                f"recall {ev.recall:.3f}, precision {ev.precision:.3f}, mean 3D error {ev.mean_error_mm:.1f} mm"
+            )
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it
             warn(f"could not score against truth.csv: {exc}")
     if viz_sink is not None and getattr(viz_sink, "rrd_path", None):
