@@ -23,10 +23,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from stereotrack.boards import Board, save_board  # noqa: E402
-from stereotrack.boardsynth import random_board_poses, render_views, write_image_folders  # noqa: E402
-from stereotrack.calibrate import calibrate, views_from_images  # noqa: E402
+from stereotrack.calibration.boards import Board, save_board  # noqa: E402
+from stereotrack.calibration.solve import calibrate  # noqa: E402
+from stereotrack.calibration.views import views_from_images  # noqa: E402
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at  # noqa: E402
+from stereotrack.simulation.boards import random_board_poses, render_views, write_image_folders  # noqa: E402
 
 
 def rig() -> Rig:

@@ -55,7 +55,8 @@ def render(preset: str, fps: float, frames: int | None, folder: Path) -> Path:
     """Render a preset into ``folder`` unless a complete rendering of the same spec is already there."""
     from stereotrack.errors import StereotrackError
     from stereotrack.recording import open_recording
-    from stereotrack.synth import make_preset, render_scene
+    from stereotrack.simulation.presets import make_preset
+    from stereotrack.simulation.write import render_scene
 
     overrides = {"fps": fps}
     if frames:
@@ -100,7 +101,7 @@ def score(tracks_csv: Path, recording: Path, n_frames: int) -> dict:
     """The figures of ``stereotrack eval`` (same function, same default gate)."""
     from stereotrack.evaluate import evaluate
     from stereotrack.recording import open_recording, read_truth
-    from stereotrack.trackfile import read_tracks
+    from stereotrack.sinks.tracks_csv import read_tracks
 
     rec = open_recording(recording)
     ev = evaluate(read_tracks(tracks_csv), read_truth(rec.truth_path), frames=list(range(n_frames)))

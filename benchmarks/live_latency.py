@@ -19,10 +19,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from stereotrack.capture.cameras import CameraPairSource  # noqa: E402
+from stereotrack.capture.devices import CaptureSettings  # noqa: E402
 from stereotrack.commands.live import run_live, simulated_scene  # noqa: E402
-from stereotrack.devices import CaptureSettings  # noqa: E402
-from stereotrack.pipeline import Tracker  # noqa: E402
-from stereotrack.sources import CameraPairSource  # noqa: E402
+from stereotrack.pipeline.tracker import Tracker  # noqa: E402
 
 
 def main() -> None:

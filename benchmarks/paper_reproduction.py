@@ -39,9 +39,10 @@ from stereotrack.camera import Rig
 from stereotrack.commands.bench import _floor
 from stereotrack.config import Config
 from stereotrack.console import Progress
-from stereotrack.pipeline import Tracker
-from stereotrack.recording import FramePair
-from stereotrack.synth import SceneRenderer, make_preset
+from stereotrack.frames import FramePair
+from stereotrack.pipeline.tracker import Tracker
+from stereotrack.simulation.presets import make_preset
+from stereotrack.simulation.render import SceneRenderer
 
 ROOT = Path(__file__).resolve().parent.parent
 ALPHAS = (0.0, 0.1, 0.2, 0.4, 0.6, 0.8, 0.9, 1.0)

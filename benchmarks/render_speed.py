@@ -13,7 +13,9 @@ import argparse
 import tempfile
 import time
 
-from stereotrack.synth import SceneRenderer, make_preset, render_scene
+from stereotrack.simulation.presets import make_preset
+from stereotrack.simulation.render import SceneRenderer
+from stereotrack.simulation.write import render_scene
 
 
 def pairs_per_second(renderer: SceneRenderer, frames: int) -> float:

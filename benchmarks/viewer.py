@@ -27,10 +27,11 @@ from collections import defaultdict
 from pathlib import Path
 
 from stereotrack.config import load_config
-from stereotrack.pipeline import Tracker, run_pipeline
+from stereotrack.pipeline.tracker import Tracker, run_pipeline
 from stereotrack.recording import open_recording, read_truth
-from stereotrack.synth import make_preset, render_scene
-from stereotrack.viz import RerunSink, SeriesBuffer, VizOutputs, VizSettings
+from stereotrack.simulation.presets import make_preset
+from stereotrack.simulation.write import render_scene
+from stereotrack.sinks.viewer.sink import RerunSink, SeriesBuffer, VizOutputs, VizSettings
 
 
 class TimedSink:

@@ -19,7 +19,7 @@ import numpy as np
 import yaml
 
 from .errors import StereotrackError
-from .yamlfile import load_yaml
+from .files import load_yaml
 
 _DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
 # Iterative undistortion to machine precision (OpenCV's default stops after 5 steps).

@@ -16,7 +16,7 @@ from typing import Any
 import yaml
 
 from .errors import StereotrackError
-from .yamlfile import load_yaml
+from .files import load_yaml
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class TrackerSettings:
 
 @dataclass(frozen=True)
 class TrackSettings:
-    """Persistent identities (tracks.py): a Kalman filter per track, gated global assignment, a lifecycle in seconds."""
+    """Persistent identities (stereotrack/tracks): a Kalman filter per track, gated global assignment, a lifecycle in seconds."""
 
     gate: float = 11.34  # Mahalanobis gate on the squared distance (chi-square, 3 dof: 7.81 = 95%, 11.34 = 99%)
     confirm_time: float = 0.1  # seconds of hits before a new track is confirmed (only confirmed tracks go to tracks.csv)

@@ -21,25 +21,11 @@ import yaml
 
 from .camera import Rig, load_rig, save_rig
 from .console import warn
-from .csvfile import read_columns
 from .errors import StereotrackError
-from .yamlfile import load_yaml
+from .files import load_yaml, read_columns
+from .frames import FramePair
 
 CODECS = {"ffv1": ("FFV1", ".mkv"), "mjpg": ("MJPG", ".avi")}
-
-
-@dataclass(frozen=True, eq=False)
-class FramePair:
-    """One synchronised set of frames, one image per camera (two or more)."""
-
-    index: int
-    images: tuple[np.ndarray, ...]  # BGR uint8, one per camera, in rig order
-    timestamps: tuple[float, ...]  # capture time per camera, seconds, one monotonic clock
-
-    @property
-    def time(self) -> float:
-        """The pair's time: the mean of its cameras' capture times."""
-        return float(np.mean(self.timestamps))
 
 
 # --------------------------------------------------------------------------- writer
@@ -303,52 +289,3 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
     return read_columns(path, ["frame", "object_id", "x", "y", "z"], "ground-truth file")
-
-
-# --------------------------------------------------------------------------- sink
-
-
-class RecordingSink:
-    """A pipeline sink that records the raw frame pairs it sees (``live --record DIR``).
-
-    The writer opens at the first pair, when the image size is known. ``write``
-    takes a ``FrameResult`` (anything with a ``.frame`` FramePair); ``write_pair``
-    takes the pair itself.
-    """
-
-    def __init__(self, folder: str | Path, camera_names: Sequence[str], fps: float, rig: Rig | None = None, **writer_options: Any):
-        self.folder = Path(folder)
-        self.camera_names = list(camera_names)
-        self.fps = fps
-        self.rig = rig
-        self.writer_options = writer_options
-        self.writer: RecordingWriter | None = None
-
-    @property
-    def count(self) -> int:
-        return self.writer.count if self.writer else 0
-
-    def write(self, result: Any) -> None:
-        self.write_pair(result.frame)
-
-    def write_pair(self, pair: FramePair) -> None:
-        if self.writer is None:
-            h, w = pair.images[0].shape[:2]
-            for name, img in zip(self.camera_names, pair.images):
-                if img.shape[:2] != (h, w):
-                    raise StereotrackError(
-                        f"camera {name} delivers {img.shape[1]}x{img.shape[0]} frames but "
-                        f"{self.camera_names[0]} {w}x{h}: set one size for all (--width/--height)"
-                    )
-            if self.rig is not None:
-                for cam in self.rig.cameras:
-                    if tuple(cam.image_size) != (w, h):
-                        raise StereotrackError(
-                            f"calibration camera {cam.name} is {cam.width}x{cam.height} but the cameras deliver {w}x{h} (record at the calibrated size)"
-                        )
-            self.writer = RecordingWriter(self.folder, self.camera_names, (w, h), self.fps, rig=self.rig, **self.writer_options)
-        self.writer.write(pair.images, pair.timestamps)
-
-    def close(self) -> None:
-        if self.writer is not None:
-            self.writer.close()

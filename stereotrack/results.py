@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .recording import FramePair
+from .frames import FramePair
 
 
 @dataclass(frozen=True, eq=False)

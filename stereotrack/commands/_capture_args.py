@@ -65,7 +65,7 @@ def camera_specs(args: argparse.Namespace) -> list[str]:
 
 
 def capture_settings(args: argparse.Namespace):
-    from ..devices import CaptureSettings
+    from ..capture.devices import CaptureSettings
     from ..errors import StereotrackError
 
     for name in ("width", "height", "fps"):

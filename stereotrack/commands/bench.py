@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _floor(images, targets):
     import cv2
 
-    from ..colour import target_mask
+    from ..evidence.colour import target_mask
 
     for img in images:
         hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
@@ -42,7 +42,7 @@ def bench_case(frames, rig, config, warmup: int = 10) -> dict[str, float]:
 
     import numpy as np
 
-    from ..pipeline import Tracker
+    from ..pipeline.tracker import Tracker
 
     tracker = Tracker(rig, config)
     floor_ms, step_ms, stages = [], [], {}
@@ -67,8 +67,9 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..console import Progress
-    from ..recording import FramePair
-    from ..synth import SceneRenderer, make_preset
+    from ..frames import FramePair
+    from ..simulation.presets import make_preset
+    from ..simulation.render import SceneRenderer
 
     sizes = [(640, 480)] if args.quick else [(640, 480), (1280, 720)]
     cases = [(2000, 0.2)] if args.quick else [(n, a) for n in (1000, 2000, 5000) for a in (0.0, 0.2, 1.0)]

@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import cv2
 
-    from ..boards import BoardDetector, load_board, printable, write_png_with_dpi
+    from ..calibration.boards import BoardDetector, load_board, printable, write_png_with_dpi
     from ..errors import StereotrackError
 
     if not 50 <= args.dpi <= 2400:

@@ -72,8 +72,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..boards import load_board
-    from ..calibrate import CalibrationOptions, calibrate, format_report, report_path, save_report, views_from_frames, views_from_images
+    from ..calibration.boards import load_board
+    from ..calibration.report import format_report, report_path, save_report
+    from ..calibration.solve import CalibrationOptions, calibrate
+    from ..calibration.views import views_from_frames, views_from_images
     from ..camera import save_rig
     from ..errors import StereotrackError
 
@@ -139,9 +141,10 @@ def run(args: argparse.Namespace) -> int:
 def _live_views(args, board, progress):
     import time
 
-    from ..calibrate import views_from_frames
+    from ..calibration.views import views_from_frames
+    from ..capture.cameras import CameraPairSource
+    from ..capture.signals import StopOnSignals
     from ..errors import StereotrackError
-    from ..sources import CameraPairSource, StopOnSignals
 
     specs = camera_specs(args)
     if args.names and len(args.names) != len(specs):

@@ -47,7 +47,7 @@ def list_devices(probe_max: int) -> list[dict]:
 
     import cv2
 
-    from ..devices import fourcc_text
+    from ..capture.devices import fourcc_text
 
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)  # failed probes are expected, not news
     backend = cv2.CAP_V4L2 if sys.platform.startswith("linux") else cv2.CAP_ANY
@@ -81,8 +81,9 @@ def check_sync(specs: list[str], settings, seconds: float, stall_timeout: float)
 
     import numpy as np
 
+    from ..capture.cameras import CameraPairSource
+    from ..capture.signals import StopOnSignals
     from ..errors import StereotrackError
-    from ..sources import CameraPairSource, StopOnSignals
 
     source = CameraPairSource(specs, settings=settings, queue_size=64, stall_timeout=stall_timeout)
     spreads, size = [], None

@@ -52,10 +52,10 @@ def run_learn(args) -> int:
 
     import yaml
 
-    from ..colour import learn_target
     from ..config import config_from_dict, load_config, save_config
     from ..console import info, warn
     from ..errors import StereotrackError
+    from ..evidence.colour import learn_target
     from ..recording import open_recording
 
     rec = open_recording(args.recording)

@@ -18,14 +18,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/demo/tracks.csv", help="tracks CSV (default out/demo/tracks.csv)")
     p.add_argument("--method", choices=["particles", "baseline"], default="particles", help=argparse.SUPPRESS)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
+    from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(p)
 
 
 def run(args) -> int:
     from ..console import info
-    from ..synth import ensure_demo_recording
+    from ..simulation.write import ensure_demo_recording
     from .track import track_recording
 
     folder = ensure_demo_recording(Path.cwd())

@@ -26,7 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from ..evaluate import evaluate
     from ..recording import read_truth
-    from ..trackfile import read_tracks
+    from ..sinks.tracks_csv import read_tracks
 
     ev = evaluate(read_tracks(args.tracks), read_truth(args.truth), gate=args.gate)
     print(json.dumps(ev.as_dict(), indent=2) if args.json else ev.table())

@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
-    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
+    from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(parser)
 
@@ -56,7 +56,7 @@ def simulated_scene(specs: list[str], settings):
         raise StereotrackError(
             "sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config"
         )
-    from ..synth import make_preset
+    from ..simulation.presets import make_preset
 
     spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
     return spec.rig.build(), spec.config()
@@ -92,8 +92,8 @@ def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = 
     """Track ``source`` until it ends, Ctrl-C/SIGTERM, or ``seconds``; returns (RunSummary, latencies in s)."""
     import time
 
-    from ..pipeline import run_pipeline
-    from ..sources import StopOnSignals
+    from ..capture.signals import StopOnSignals
+    from ..pipeline.run import run_pipeline
 
     latency = LatencySink(source, time.monotonic, show)
 
@@ -116,12 +116,12 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..camera import load_rig
+    from ..capture.cameras import CameraPairSource
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
-    from ..recording import RecordingSink
-    from ..sources import CameraPairSource
-    from ..trackfile import TracksCsvSink
+    from ..sinks.recorder import RecordingSink
+    from ..sinks.tracks_csv import TracksCsvSink
     from .track import make_tracker
 
     specs = camera_specs(args)
@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     sinks = []
     if args.out:
         sinks.append(TracksCsvSink(args.out))
-    from ..viz import make_viz_sink
+    from ..sinks.viewer.flags import make_viz_sink
 
     viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
     if viz is not None:

@@ -41,10 +41,11 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..camera import load_rig
+    from ..capture.cameras import CameraPairSource
+    from ..capture.signals import StopOnSignals
     from ..console import Progress, info
     from ..errors import StereotrackError
-    from ..recording import RecordingSink
-    from ..sources import CameraPairSource, StopOnSignals
+    from ..sinks.recorder import RecordingSink
 
     specs = camera_specs(args)
     settings = capture_settings(args)

@@ -38,8 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..errors import StereotrackError
-    from ..scenes import PRESETS, load_scene_yaml, make_preset, scene_from_dict
-    from ..synth import render_scene
+    from ..simulation.presets import PRESETS, load_scene_yaml, make_preset, scene_from_dict
+    from ..simulation.write import render_scene
 
     if args.list:
         width = max(len(n) for n in PRESETS)

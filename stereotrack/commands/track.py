@@ -33,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", type=int, help="track at most this many frames")
     p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    from ..viz import add_viz_arguments  # viz imports rerun only when a viewer flag is used
+    from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(p)
 
@@ -64,11 +64,11 @@ def with_recording_up(config, recording):
 
 def make_tracker(method: str, rig, config, keep_rays: bool = False):
     if method == "baseline":
-        from ..baseline import BaselineTracker
+        from ..pipeline.baseline import BaselineTracker
 
         return BaselineTracker(rig, config)
     from ..console import notice_if_slow
-    from ..pipeline import Tracker
+    from ..pipeline.tracker import Tracker
 
     with notice_if_slow("compiling the tracker's kernels (first run on this machine only: up to a minute) ..."):
         return Tracker(rig, config, keep_rays=keep_rays)
@@ -78,9 +78,9 @@ def track_recording(args, default_out: Path | None = None) -> int:
     """Shared by `track` and `demo`."""
     from ..console import info, warn
     from ..errors import StereotrackError
-    from ..pipeline import run_pipeline
+    from ..pipeline.run import run_pipeline
     from ..recording import open_recording, read_truth
-    from ..trackfile import TracksCsvSink, read_tracks
+    from ..sinks.tracks_csv import TracksCsvSink, read_tracks
 
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
@@ -92,14 +92,14 @@ def track_recording(args, default_out: Path | None = None) -> int:
     truth = read_truth(rec.truth_path) if rec.truth_path else None
     tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
     sinks = [TracksCsvSink(out)]
-    from ..viz import make_viz_sink
+    from ..sinks.viewer.flags import make_viz_sink
 
     viz_sink = make_viz_sink(args, rig, config, truth=truth)  # None when no viewer flag is given
     if viz_sink is not None:
         sinks.append(viz_sink)
     frames = rec.frames(args.start, stop)
     if args.realtime:
-        from ..sources import paced
+        from ..capture.replay import paced
 
         frames = paced(frames, rec.timestamps[args.start : stop])
     objects_seen = {t.name: 0 for t in config.targets}

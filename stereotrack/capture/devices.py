@@ -1,0 +1,408 @@
+"""Video devices behind the ``cv2.VideoCapture`` interface: webcams, video files, simulated cameras.
+
+A device is anything with ``isOpened, read, grab, retrieve, set, get, release``
+(OpenCV's own interface), so the capture threads in ``cameras.py`` cannot tell
+a USB webcam from a file played at its real rate or a rendered scene.
+
+Device specs on the command line (``--cam0 SPEC``):
+
+- ``0``, ``2``, ...: a webcam by OpenCV index (V4L2 on Linux: index N is /dev/videoN)
+- ``/path/video.mkv``: a video file, played at its own frame rate (ends at its end)
+- ``sim:PRESET[,key=value...]``: a simulated camera viewing a synthetic scene
+  (``stereotrack synth --list`` names the presets; ``sim:dots`` is a cheap test
+  pattern). Keys: ``view`` (camera of the scene's rig, default: the slot, so
+  ``--cam0 sim:pendulum4 --cam1 sim:pendulum4`` is a stereo pair), ``jitter``
+  (timestamp jitter s.d., seconds, default 0.002), ``drop`` (probability that
+  the device loses a frame, default 0.01), ``stop`` (seconds after which the
+  camera hangs, like an unplugged webcam), ``seed`` (default: the slot),
+  ``loop`` (render that many seconds up front and loop them: a camera that
+  costs no CPU, for benchmarks).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import cv2
+import numpy as np
+
+from ..errors import StereotrackError
+
+
+class VideoDevice(Protocol):
+    """The subset of ``cv2.VideoCapture`` the capture threads use."""
+
+    def isOpened(self) -> bool: ...
+    def read(self) -> tuple[bool, np.ndarray | None]: ...
+    def grab(self) -> bool: ...
+    def retrieve(self) -> tuple[bool, np.ndarray | None]: ...
+    def set(self, prop: int, value: float) -> bool: ...
+    def get(self, prop: int) -> float: ...
+    def release(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class CaptureSettings:
+    """What to ask of each camera. Set by command-line flags only (a rig's cameras differ per machine).
+
+    None means "leave the device's own setting". Manual exposure, gain and white
+    balance matter for tracking: auto exposure shifts colours from frame to
+    frame and moves balls out of their HSV range.
+    """
+
+    width: int | None = 640
+    height: int | None = 480
+    fps: float | None = 30.0
+    fourcc: str | None = "MJPG"  # MJPG lets two USB 2 webcams share one bus
+    exposure: float | None = None  # manual exposure, device units (V4L2: 100 µs steps); turns auto exposure off
+    gain: float | None = None
+    white_balance: float | None = None  # Kelvin; turns auto white balance off
+
+
+# --------------------------------------------------------------------------- simulated camera
+
+
+class _StandInScene:
+    """A cheap moving-dots pattern: used for ``sim:dots`` (fast tests) and when no renderer exists."""
+
+    n_frames = 1 << 30
+
+    def __init__(self, width: int, height: int, fps: float, n_views: int = 4):
+        self.width, self.height, self.fps, self.n_views = width, height, fps, n_views
+        yy, xx = np.mgrid[0:height, 0:width]
+        self._background = (60 + 40 * (xx / width) + 20 * (yy / height)).astype(np.uint8)
+
+    def render(self, frame_index: int) -> tuple[tuple[np.ndarray, ...], list]:
+        t = frame_index / self.fps
+        images = []
+        for view in range(self.n_views):
+            img = cv2.merge([self._background] * 3)
+            for k, colour in enumerate(((180, 60, 230), (60, 200, 60))):
+                cx = self.width * (0.5 + 0.3 * np.cos(2 * np.pi * (0.25 + 0.1 * k) * t + k)) - 6 * view
+                cy = self.height * (0.5 + 0.3 * np.sin(2 * np.pi * 0.2 * t + k))
+                cv2.circle(img, (int(cx), int(cy)), max(3, self.width // 40), colour, -1)
+            # the frame number in the corner, so a test can read which frame a video holds
+            cv2.putText(img, str(frame_index), (4, self.height - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1)
+            images.append(img)
+        return tuple(images), []
+
+
+class _SharedScene:
+    """One scene rendered once per frame for every simulated camera that views it."""
+
+    _registry: dict[tuple, _SharedScene] = {}
+    _registry_lock = threading.Lock()
+
+    def __init__(self, preset: str, width: int, height: int, fps: float, loop: float | None = None):
+        self.preset = preset
+        self.renderer = _make_renderer(preset, width, height, fps)
+        self.n_frames = int(getattr(self.renderer, "n_frames", 0) or 1 << 30)
+        self._lock = threading.Lock()
+        self._cache: dict[int, tuple[np.ndarray, ...]] = {}
+        self._keep_all = loop is not None
+        if loop is not None:
+            # Render the first seconds up front and loop them: the camera then costs no CPU,
+            # like a real webcam, so benchmarks measure the tracker, not the renderer.
+            self.n_frames = max(1, min(self.n_frames, round(loop * fps)))
+            for k in range(self.n_frames):
+                self._cache[k] = tuple(self.renderer.render(k)[0])
+        else:
+            # The first frame also loads the compiled projection (kernels.py): a real camera is warm
+            # when opened, so take that one-off second here, before any camera's clock starts.
+            self._cache[0] = tuple(self.renderer.render(0)[0])
+
+    @classmethod
+    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> _SharedScene:
+        key = (preset, width, height, fps, loop)
+        with cls._registry_lock:
+            if key not in cls._registry:
+                cls._registry[key] = cls(preset, width, height, fps, loop)
+            return cls._registry[key]
+
+    def image(self, frame_index: int, view: int) -> np.ndarray:
+        k = frame_index % self.n_frames  # scenes are finite; a camera runs for ever
+        with self._lock:
+            images = self._cache.get(k)
+            if images is None:
+                images = tuple(self.renderer.render(k)[0])
+                self._cache[k] = images
+                for old in [i for i in self._cache if i < k - 8 and not self._keep_all]:
+                    del self._cache[old]
+        if view >= len(images):
+            raise StereotrackError(
+                f"sim:{self.preset} has {len(images)} cameras; view={view} does not exist (use view=0..{len(images) - 1})"
+            )
+        return images[view]
+
+
+def _make_renderer(preset: str, width: int, height: int, fps: float):
+    if preset == "dots":
+        return _StandInScene(width, height, fps)
+    try:
+        from .. import simulation as synth
+    except ImportError:
+        return _StandInScene(width, height, fps)
+    try:
+        spec = synth.make_preset(preset, width=width, height=height, fps=fps)
+    except StereotrackError:
+        raise
+    except Exception as exc:
+        raise StereotrackError(f"sim:{preset}: cannot build this scene ({exc}); see `stereotrack synth --list`") from None
+    return synth.SceneRenderer(spec)
+
+
+class SimulatedCamera:
+    """A fake webcam: frames of a synthetic scene at a nominal fps, with jitter and lost frames.
+
+    ``grab`` blocks until the next frame is due (like a real device), skipping
+    frames the host was too slow to take (a real camera overwrites its buffer);
+    ``retrieve`` renders it. With ``stop_after`` the camera hangs after that
+    many seconds, like an unplugged webcam whose ``read`` never returns.
+    """
+
+    finite = False
+
+    def __init__(
+        self,
+        preset: str = "dots",
+        view: int = 0,
+        jitter: float = 0.002,
+        drop: float = 0.01,
+        stop_after: float | None = None,
+        seed: int = 0,
+        width: int = 640,
+        height: int = 480,
+        fps: float = 30.0,
+        loop: float | None = None,
+    ):
+        self.preset, self.view, self.loop = preset, int(view), loop
+        self.jitter, self.drop, self.stop_after = float(jitter), float(drop), stop_after
+        self._props = {cv2.CAP_PROP_FRAME_WIDTH: float(width), cv2.CAP_PROP_FRAME_HEIGHT: float(height), cv2.CAP_PROP_FPS: float(fps)}
+        self._rng = np.random.default_rng(seed)
+        self._scene: _SharedScene | None = None
+        self._start: float | None = None
+        self._next = 0
+        self._grabbed: int | None = None
+        self._grab_time = 0.0
+        self._released = threading.Event()
+
+    def isOpened(self) -> bool:
+        return not self._released.is_set()
+
+    def set(self, prop: int, value: float) -> bool:
+        if prop in (cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT, cv2.CAP_PROP_FPS) and self._scene is None:
+            self._props[prop] = float(value)
+            return True
+        if prop in (
+            cv2.CAP_PROP_FOURCC,
+            cv2.CAP_PROP_EXPOSURE,
+            cv2.CAP_PROP_AUTO_EXPOSURE,
+            cv2.CAP_PROP_GAIN,
+            cv2.CAP_PROP_AUTO_WB,
+            cv2.CAP_PROP_WB_TEMPERATURE,
+            cv2.CAP_PROP_BUFFERSIZE,
+        ):
+            self._props[prop] = float(value)
+            return True
+        return False
+
+    def get(self, prop: int) -> float:
+        if prop == cv2.CAP_PROP_POS_MSEC:
+            return self._grab_time * 1000.0  # like V4L2's buffer timestamp: when the frame was taken
+        return float(self._props.get(prop, 0.0))
+
+    @property
+    def fps(self) -> float:
+        return self._props[cv2.CAP_PROP_FPS]
+
+    def prepare(self) -> None:
+        """Build (and with ``loop``, pre-render) the scene now, before the clock starts; size and fps are then fixed."""
+        if self._scene is None:
+            w, h = int(self._props[cv2.CAP_PROP_FRAME_WIDTH]), int(self._props[cv2.CAP_PROP_FRAME_HEIGHT])
+            self._scene = _SharedScene.get(self.preset, w, h, self.fps, self.loop)
+
+    def grab(self) -> bool:
+        if self._released.is_set():
+            return False
+        if self._start is None:
+            self.prepare()
+            self._start = time.monotonic()
+        period = 1.0 / self.fps
+        while True:
+            k = self._next
+            self._next += 1
+            # draw both numbers every frame so the stream of choices does not depend on timing
+            lost = self._rng.random() < self.drop
+            offset = float(np.clip(self._rng.normal(0.0, self.jitter), -0.4 * period, 0.4 * period))
+            if lost:
+                continue
+            due = self._start + k * period + offset
+            if self.stop_after is not None and k * period >= self.stop_after:
+                self._released.wait()  # unplugged: hang until someone gives up on us
+                return False
+            now = time.monotonic()
+            if due > now:
+                time.sleep(due - now)
+            elif now - due > period:
+                continue  # the host was too slow: this frame was overwritten in the device
+            self._grabbed = k
+            self._grab_time = due
+            return True
+
+    def retrieve(self) -> tuple[bool, np.ndarray | None]:
+        if self._grabbed is None or self._scene is None:
+            return False, None
+        return True, self._scene.image(self._grabbed, self.view).copy()
+
+    def read(self) -> tuple[bool, np.ndarray | None]:
+        return self.retrieve() if self.grab() else (False, None)
+
+    def release(self) -> None:
+        self._released.set()
+
+
+# --------------------------------------------------------------------------- video file at its real rate
+
+
+class VideoFileCamera:
+    """A video file that delivers its frames at the file's frame rate, as a camera would."""
+
+    finite = True  # its end is the end of the input, not an unplugged camera
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self._cap = cv2.VideoCapture(str(self.path))
+        self._fps = self._cap.get(cv2.CAP_PROP_FPS) or 30.0
+        self._start: float | None = None
+        self._k = 0
+
+    def isOpened(self) -> bool:
+        return self._cap.isOpened()
+
+    def set(self, prop: int, value: float) -> bool:
+        return False  # a file's size and rate are what they are
+
+    def get(self, prop: int) -> float:
+        return self._fps if prop == cv2.CAP_PROP_FPS else self._cap.get(prop)
+
+    def grab(self) -> bool:
+        now = time.monotonic()
+        if self._start is None:
+            self._start = now
+        due = self._start + self._k / self._fps
+        if due > now:
+            time.sleep(due - now)
+        self._k += 1
+        return self._cap.grab()
+
+    def retrieve(self) -> tuple[bool, np.ndarray | None]:
+        return self._cap.retrieve()
+
+    def read(self) -> tuple[bool, np.ndarray | None]:
+        return self.retrieve() if self.grab() else (False, None)
+
+    def release(self) -> None:
+        self._cap.release()
+
+
+# --------------------------------------------------------------------------- opening a spec
+
+
+def _parse_sim(spec: str, slot: int) -> dict[str, Any]:
+    body = spec[len("sim:") :]
+    preset, *options = body.split(",")
+    if not preset:
+        raise StereotrackError(f"{spec!r}: name a scene after 'sim:', e.g. sim:pendulum4 (see `stereotrack synth --list`)")
+    kwargs: dict[str, Any] = {"preset": preset, "view": slot, "seed": slot}
+    casts = {
+        "view": ("view", int),
+        "jitter": ("jitter", float),
+        "drop": ("drop", float),
+        "stop": ("stop_after", float),
+        "seed": ("seed", int),
+        "loop": ("loop", float),
+    }
+    for opt in options:
+        key, _, value = opt.partition("=")
+        if key not in casts:
+            raise StereotrackError(f"{spec!r}: unknown option {key!r} (options: {', '.join(casts)})")
+        name, cast = casts[key]
+        try:
+            kwargs[name] = cast(value)
+        except ValueError:
+            raise StereotrackError(f"{spec!r}: option {key} needs a {cast.__name__}, got {value!r}") from None
+    if not 0.0 <= kwargs.get("drop", 0.0) < 1.0:
+        raise StereotrackError(f"{spec!r}: drop is a probability in 0..1")
+    return kwargs
+
+
+def describe(spec: str) -> str:
+    """A short human description of a device spec for messages."""
+    return f"device {spec}" if spec.isdigit() else spec
+
+
+def open_device(spec: str, slot: int = 0, settings: CaptureSettings = CaptureSettings()) -> VideoDevice:
+    """Open a device spec (see the module docstring) and apply the capture settings."""
+    spec = str(spec).strip()
+    if spec.startswith("sim:"):
+        kwargs = _parse_sim(spec, slot)
+        cam = SimulatedCamera(**kwargs)
+        if settings.width:
+            cam.set(cv2.CAP_PROP_FRAME_WIDTH, settings.width)
+        if settings.height:
+            cam.set(cv2.CAP_PROP_FRAME_HEIGHT, settings.height)
+        if settings.fps:
+            cam.set(cv2.CAP_PROP_FPS, settings.fps)
+        cam.prepare()
+        return cam
+    if spec.lstrip("-").isdigit():
+        return open_webcam(int(spec), settings)
+    path = Path(spec)
+    if not path.is_file():
+        raise StereotrackError(
+            f"camera {spec!r}: not a device index, an existing video file or sim:SCENE (run `stereotrack cameras` to list devices)"
+        )
+    cam = VideoFileCamera(path)
+    if not cam.isOpened():
+        raise StereotrackError(f"{path}: OpenCV cannot open this video")
+    return cam
+
+
+def open_webcam(index: int, settings: CaptureSettings = CaptureSettings(), quiet: bool = False) -> cv2.VideoCapture:
+    """A real webcam by index (V4L2 on Linux), configured; raises StereotrackError if it does not open."""
+    backend = cv2.CAP_V4L2 if sys.platform.startswith("linux") else cv2.CAP_ANY
+    cap = cv2.VideoCapture(index, backend)
+    if not cap.isOpened():
+        cap.release()
+        raise StereotrackError(f"cannot open camera {index} (run `stereotrack cameras` to list the devices OpenCV can open)")
+    # Order matters on V4L2: pixel format before size, size before rate.
+    if settings.fourcc:
+        cap.set(cv2.CAP_PROP_FOURCC, cv2.VideoWriter_fourcc(*settings.fourcc[:4].ljust(4)))
+    if settings.width:
+        cap.set(cv2.CAP_PROP_FRAME_WIDTH, settings.width)
+    if settings.height:
+        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, settings.height)
+    if settings.fps:
+        cap.set(cv2.CAP_PROP_FPS, settings.fps)
+    cap.set(cv2.CAP_PROP_BUFFERSIZE, 2)  # few buffers in the driver: old frames never queue up there
+    if settings.exposure is not None:
+        cap.set(cv2.CAP_PROP_AUTO_EXPOSURE, 1)  # V4L2: 1 = manual, 3 = aperture-priority auto
+        cap.set(cv2.CAP_PROP_EXPOSURE, settings.exposure)
+    if settings.gain is not None:
+        cap.set(cv2.CAP_PROP_GAIN, settings.gain)
+    if settings.white_balance is not None:
+        cap.set(cv2.CAP_PROP_AUTO_WB, 0)
+        cap.set(cv2.CAP_PROP_WB_TEMPERATURE, settings.white_balance)
+    return cap
+
+
+def fourcc_text(value: float) -> str:
+    """CAP_PROP_FOURCC as text ('MJPG', 'YUYV'); '' when the device does not say."""
+    code = int(value)
+    text = "".join(chr((code >> (8 * i)) & 0xFF) for i in range(4))
+    return text if text.isprintable() and code else ""

@@ -1,0 +1,93 @@
+"""Replaying a recording as a source: as fast as possible, or paced at its recorded times."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from ..frames import FramePair
+from ..recording import Recording, open_recording
+from .cameras import CameraStats, SourceStats
+
+
+def paced(
+    pairs: Iterable[FramePair],
+    timestamps: np.ndarray,
+    skip_late: bool = True,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], None] = time.sleep,
+    on_skip: Callable[[FramePair], None] | None = None,
+) -> Iterator[FramePair]:
+    """Yield pairs at their recorded pace; row i of ``timestamps`` holds the i-th pair's capture times.
+
+    With ``skip_late`` a pair more than one frame period behind schedule is
+    skipped (``on_skip`` is told), as a live camera would drop it, so a slow
+    consumer sees the recording's present, not a growing backlog.
+    """
+    times = np.asarray(timestamps, dtype=float).reshape(len(timestamps), -1).mean(axis=1)
+    period = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
+    start_wall = start_rec = None
+    for pair, t in zip(pairs, times):  # row i of timestamps belongs to the i-th pair, whatever its index
+        if start_wall is None:
+            start_wall, start_rec = clock(), t
+        due = start_wall + (t - start_rec)
+        now = clock()
+        if due > now:
+            sleep(due - now)
+        elif skip_late and now - due > period > 0:
+            if on_skip:
+                on_skip(pair)
+            continue
+        yield pair
+
+
+class RecordingSource:
+    """A recording folder as a source: as fast as possible, or at its recorded pace (``realtime``)."""
+
+    def __init__(
+        self,
+        recording: Recording | str | Path,
+        realtime: bool = False,
+        calib: str | Path | None = None,
+        start: int = 0,
+        stop: int | None = None,
+        skip_late: bool = True,
+    ):
+        self.recording = recording if isinstance(recording, Recording) else open_recording(recording, calib)
+        self.realtime = realtime
+        self.rig = self.recording.rig
+        self.fps = self.recording.fps
+        self.camera_names = self.recording.camera_names
+        self._start, self._stop = start, stop
+        self.n_frames = len(range(self.recording.n_frames)[start:stop])
+        self.skip_late = skip_late
+        self._delivered = 0
+        self._skipped = 0
+        self._frames: Iterator[FramePair] | None = None
+
+    def __iter__(self) -> Iterator[FramePair]:
+        frames = self.recording.frames(self._start, self._stop)
+        self._frames = frames
+        if self.realtime:
+            frames = paced(frames, self.recording.timestamps[self._start : self._stop], self.skip_late, on_skip=self._count_skip)
+        for pair in frames:
+            self._delivered += 1
+            yield pair
+
+    def _count_skip(self, pair: FramePair) -> None:
+        self._skipped += 1
+
+    @property
+    def stats(self) -> SourceStats:
+        cams = tuple(
+            CameraStats(n, str(self.recording.folder), self._delivered + self._skipped, self.fps, self._skipped, 0)
+            for n in self.camera_names
+        )
+        return SourceStats(cams, self._delivered, self._skipped)
+
+    def close(self) -> None:
+        if self._frames is not None and hasattr(self._frames, "close"):
+            self._frames.close()  # releases the video readers

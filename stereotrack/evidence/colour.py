@@ -1,0 +1,115 @@
+"""Target colours: HSV masks, integral images, and learning a range from a region.
+
+Masks are computed once per frame per camera per target; the likelihood then
+counts mask pixels in any window in O(1) from the integral image.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..config import Target
+from ..errors import StereotrackError
+
+
+def to_hsv(image_bgr: np.ndarray) -> np.ndarray:
+    """BGR uint8 image -> OpenCV HSV (H 0..179)."""
+    return cv2.cvtColor(image_bgr, cv2.COLOR_BGR2HSV)
+
+
+def target_mask(hsv: np.ndarray, target: Target) -> np.ndarray:
+    """Binary mask (uint8 0/1) of the pixels inside the target's HSV range; hue may wrap."""
+    lo = np.array(target.hsv_min, dtype=np.uint8)
+    hi = np.array(target.hsv_max, dtype=np.uint8)
+    if not target.wraps:
+        mask = cv2.inRange(hsv, lo, hi)
+    else:  # reds: [h_min, 179] or [0, h_max]
+        a = cv2.inRange(hsv, lo, np.array([179, hi[1], hi[2]], dtype=np.uint8))
+        b = cv2.inRange(hsv, np.array([0, lo[1], lo[2]], dtype=np.uint8), hi)
+        mask = cv2.bitwise_or(a, b)
+    # inRange gives 0/255; 0/1 makes the integral image a pixel count.
+    return cv2.threshold(mask, 0, 1, cv2.THRESH_BINARY)[1]
+
+
+def integral_image(mask: np.ndarray) -> np.ndarray:
+    """Summed-area table, (H+1) x (W+1) int32, of a 0/1 mask."""
+    return cv2.integral(mask, sdepth=cv2.CV_32S)
+
+
+@dataclass(frozen=True, eq=False)
+class CameraMasks:
+    """One camera's masks for every target this frame."""
+
+    camera: str
+    masks: dict[str, np.ndarray]  # target name -> uint8 0/1 mask
+    integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32
+
+
+def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...]) -> CameraMasks:
+    """HSV conversion once, then one mask and one integral image per target."""
+    hsv = to_hsv(image_bgr)
+    masks = {t.name: target_mask(hsv, t) for t in targets}
+    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()})
+
+
+# --------------------------------------------------------------------------- learning
+
+
+@dataclass(frozen=True)
+class LearnedRange:
+    target: Target
+    roi_coverage: float  # share of the region's pixels inside the learned range
+    background_coverage: float  # share of the pixels outside the region inside the range
+
+
+def _hue_interval(h: np.ndarray, lo_pct: float, hi_pct: float) -> tuple[int, int]:
+    """Percentile interval of hues on the 180-step circle, cut at the emptiest hue."""
+    hist = np.bincount(h.ravel(), minlength=180)
+    cut = int(np.argmin(np.convolve(np.r_[hist[-7:], hist, hist[:7]], np.ones(15), "valid")[:180]))
+    shifted = (h.astype(int) - cut) % 180
+    a, b = np.percentile(shifted, [lo_pct, hi_pct])
+    return int((np.floor(a) + cut) % 180), int((np.ceil(b) + cut) % 180)
+
+
+def learn_target(
+    image_bgr: np.ndarray,
+    roi: tuple[int, int, int, int],
+    name: str,
+    radius: float = Target.radius,
+    margin: tuple[int, int, int] = (4, 25, 25),
+    percentiles: tuple[float, float] = (2.0, 98.0),
+) -> LearnedRange:
+    """Learn an HSV range from the pixels of ``roi`` (x, y, w, h) that look like the ball.
+
+    Keeps the saturated pixels of the region (the ball, not the background
+    around it), takes robust percentiles per channel (hue on the circle, so a
+    red ball gives a wrapping range) and widens them by ``margin``.
+    """
+    x, y, w, h = roi
+    H, W = image_bgr.shape[:2]
+    if w <= 0 or h <= 0 or x < 0 or y < 0 or x + w > W or y + h > H:
+        raise StereotrackError(f"--roi {x},{y},{w},{h} is not inside the {W}x{H} image")
+    hsv = to_hsv(image_bgr)
+    patch = hsv[y : y + h, x : x + w].reshape(-1, 3)
+    # The ball is the saturated part of the region; Otsu on saturation separates it from a grey background.
+    s = patch[:, 1]
+    thr, _ = cv2.threshold(s.reshape(-1, 1), 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    ball = patch[s > max(thr, 40)]
+    if len(ball) < 10:
+        raise StereotrackError(f"--roi {x},{y},{w},{h}: too few coloured pixels in the region (draw the box tightly around the ball)")
+    h_lo, h_hi = _hue_interval(ball[:, 0], *percentiles)
+    s_lo, s_hi = np.percentile(ball[:, 1], percentiles)
+    v_lo, v_hi = np.percentile(ball[:, 2], percentiles)
+    h_lo, h_hi = (h_lo - margin[0]) % 180, (h_hi + margin[0]) % 180
+    lo = (int(h_lo), int(max(0, s_lo - margin[1])), int(max(0, v_lo - margin[2])))
+    hi = (int(h_hi), int(min(255, s_hi + margin[1])), int(min(255, v_hi + margin[2])))
+    target = Target(name=name, hsv_min=lo, hsv_max=hi, radius=radius)
+    mask = target_mask(hsv, target)
+    inside = np.zeros(mask.shape, bool)
+    inside[y : y + h, x : x + w] = True
+    roi_cov = float(mask[inside].mean())
+    bg_cov = float(mask[~inside].mean()) if (~inside).any() else 0.0
+    return LearnedRange(target, roi_cov, bg_cov)

@@ -1,0 +1,316 @@
+"""Objects must explain colour blobs: drop stereo ghosts and duplicates, refine positions.
+
+With several balls of one colour, the particle filter also finds *ghosts*:
+points whose projection lands on ball A in one camera and on ball B in the
+other (the same ambiguity that makes epipolar matching of same-coloured
+blobs fail). Eq. 14 scores a ghost as high as a ball. This stage looks at
+which blob each object projects into in every camera and how large that blob
+is compared with a ball of the known radius at the object's depth:
+
+- clusters that see the same blob in every camera are merged (EM cuts one
+  ball's depth-elongated particle cloud into pieces);
+- objects are ranked by mass x size consistency (a ghost sits at the wrong
+  depth, so its expected apparent size disagrees with its blobs), with a
+  bonus for lying where a confirmed track predicts a ball;
+- in that order an object is kept if it explains at least one blob that no
+  kept object explains yet; otherwise every blob it sees is already
+  accounted for (a ghost or a duplicate cluster) and it is dropped;
+- a kept object that alone explains a blob of consistent size in every
+  camera gets the triangulated blob centroids as its position (the particle
+  mean is biased by the shape of the ball's likelihood plateau; centroids
+  are not). With one such view, its ray fixes the direction; the depth comes
+  from the particles, or, when the other view's blob is shared with another
+  ball, from where along the ray this ball's disc and the other balls'
+  discs best make up the shared blob (discs.py; the particles' mean is
+  biased towards the other ball). Where the shared blob says little (a ball
+  wholly hidden behind a nearer one) and the particles spread wide along the
+  ray, the ball's track decides. Otherwise (occlusion in every view) it keeps
+  the particle mean.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..camera import Camera, triangulate_with_covariance
+from ..evidence.blobs import Blobs
+from ..kernels import blob_signature
+from ..results import Object3D
+from .discs import RayFit, depth_on_ray, union_mismatch
+
+
+@dataclass(frozen=True)
+class ExplainSettings:
+    radius: float  # ball radius, metres
+    size_tolerance: float = 0.3  # sigma of log(blob radius / expected radius) in the ranking
+    refine_tolerance: float = 0.3  # |log size ratio| below this in every camera allows refinement
+    refine: bool = True
+    track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
+    centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
+    one_view_depth_sigma: float = 0.07  # metres: how little the particles say about depth when only one view is clean
+    disc_fit: bool = True  # place a ball in a shared blob by fitting the union of ball discs to it
+    disc_fit_tolerance: float = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
+    disc_fit_sigma: float = 0.01  # metres: the least depth uncertainty a disc fit claims
+
+
+_NO_LABELS, _NO_LABEL_BLOB = np.zeros((1, 1), np.int32), np.full(1, -1)
+_DEPTH_STEPS = np.linspace(0.0, 1.0, 41)  # the disc fit's candidate depths, spread over its search range
+
+
+def _merge(objs: Sequence[Object3D]) -> Object3D:
+    """One object from clusters that see the same blobs: mass-weighted mixture of them."""
+    if len(objs) == 1:
+        return objs[0]
+    m = np.array([o.mass for o in objs])
+    mu = np.array([o.position for o in objs])
+    total = m.sum()
+    mean = m @ mu / total
+    d = mu - mean
+    cov = (sum(mi * o.covariance for mi, o in zip(m, objs)) + (m[:, None] * d).T @ d) / total
+    return Object3D(objs[0].target, mean, cov, float(total), int(sum(o.n_particles for o in objs)))
+
+
+def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarray, np.ndarray]:
+    """Per object and camera: the blob it sees (its label there, else the nearest blob whose disc reaches
+    it; -1: none) and log(blob radius / expected radius)."""
+    k, c = len(positions), len(cameras)
+    ids = np.full((k, c), -1)
+    log_ratio = np.full((k, c), np.nan)
+    if k == 0:
+        return ids, log_ratio
+    positions = np.ascontiguousarray(positions, dtype=float)
+    for j, (cam, b) in enumerate(zip(cameras, blobs)):
+        if len(b) == 0:
+            continue
+        if b.labels is None:  # the histogram blob finder: nearest blob only
+            labels, label_blob, use_labels = _NO_LABELS, _NO_LABEL_BLOB, False
+        else:
+            labels, label_blob, use_labels = b.labels, b.label_blob, True
+        ids[:, j], log_ratio[:, j] = blob_signature(
+            positions, *cam._kernel_arrays, radius, cam.width, cam.height, labels, label_blob, b.label_scale, use_labels, b.centres, b.radii
+        )
+    return ids, log_ratio
+
+
+def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainSettings, predicted: np.ndarray | None) -> np.ndarray:
+    """mass x size consistency, with a bonus where a confirmed track predicts a ball."""
+    consistency = np.exp(-0.5 * np.nansum((log_ratio / settings.size_tolerance) ** 2, axis=1))
+    score = np.array([o.mass for o in objects]) * np.maximum(consistency, 1e-3)
+    if predicted is not None and len(predicted):
+        pos = np.array([o.position for o in objects])
+        near = (np.linalg.norm(pos[:, None] - predicted[None], axis=2) < 2 * settings.radius).any(axis=1)
+        score = np.where(near, score * settings.track_bonus, score)
+    return score
+
+
+def explain(
+    objects: Sequence[Object3D],
+    cameras: Sequence[Camera],
+    blobs: Sequence[Blobs],
+    settings: ExplainSettings,
+    predicted: np.ndarray | None = None,
+    rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
+    occluders: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[list[Object3D], np.ndarray]:
+    """Keep the objects that explain blobs.
+
+    ``predicted``: where tracks of this colour expect balls; ``rays``: the
+    blobs' viewing rays per camera (origins, directions), if already known;
+    ``occluders``: tracked balls of other colours (centres B x 3, radii B),
+    whose discs hide part of a ball behind them. Returns (kept objects, index
+    of the kept object each input object went into, or -1 if it was dropped).
+    """
+    into = np.full(len(objects), -1)
+    if not objects:
+        return [], into
+    # Clusters that see the same blobs in every camera are one ball: EM cut its cloud (long along
+    # the viewing direction, longer still where two balls merge into one blob) into pieces.
+    groups: dict[tuple[int, ...], list[int]] = {}
+    ids, first_ratio = _signatures(np.array([o.position for o in objects]), cameras, blobs, settings.radius)
+    for i, sig in enumerate(map(tuple, ids.tolist())):
+        if any(k >= 0 for k in sig):
+            groups.setdefault(sig, []).append(i)
+    merged, members, blob_ids = [], [], []
+    for sig, idx in groups.items():
+        merged.append(_merge([objects[i] for i in idx]))
+        members.append(idx)
+        blob_ids.append(sig)
+    if not merged:
+        return [], into
+    blob_ids = np.array(blob_ids)
+    if all(len(idx) == 1 for idx in members):  # nothing merged: the sizes are those measured above
+        log_ratio = first_ratio[[idx[0] for idx in members]]
+    else:
+        _, log_ratio = _signatures(np.array([o.position for o in merged]), cameras, blobs, settings.radius)
+    score = _rank(merged, log_ratio, settings, predicted)
+    c = len(cameras)
+    used: set[tuple[int, int]] = set()
+    kept: list[int] = []
+    for i in np.argsort(-score, kind="stable"):
+        seen = {(j, int(blob_ids[i, j])) for j in range(c) if blob_ids[i, j] >= 0}
+        if seen <= used:
+            continue  # every blob it sees belongs to a stronger object: a stereo ghost
+        used |= seen
+        kept.append(int(i))
+    kept.sort()
+    for n, i in enumerate(kept):
+        into[members[i]] = n
+    out = [merged[i] for i in kept]
+    if settings.refine:
+        if rays is None:
+            rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
+        hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
+        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted)
+    return out, into
+
+
+def _depth_along_ray(o, d, particle_depth: float, along_var: float, predicted, radius: float) -> float:
+    """Where along a clean view's ray a ball sits whose other views are shared or hidden.
+
+    The particles spread along the stretch of the ray that the shared blob
+    allows, and their mean is biased wherever the other ball covers more of it
+    (when the ball is hidden behind a nearer one, any point of the stretch
+    fits the masks). A track predicted next to the ray knows better: its
+    depth is used when it lies inside the particles' stretch.
+    """
+    if predicted is None or len(predicted) == 0:
+        return particle_depth
+    t = (predicted - o) @ d
+    lateral = np.linalg.norm(predicted - (o + np.outer(t, d)), axis=1)
+    k = int(np.argmin(lateral))
+    if lateral[k] < 2 * radius and abs(t[k] - particle_depth) < 2.5 * np.sqrt(along_var):
+        return float(t[k])
+    return particle_depth
+
+
+def _mates(i: int, kept: list[int], blob_ids: np.ndarray) -> list[tuple[int, list[int]]]:
+    """(camera, the other kept balls in ball i's blob there) for every camera where i shares its blob."""
+    out = []
+    for j, b in enumerate(blob_ids[i]):
+        mates = [k for k in kept if k != i and b >= 0 and blob_ids[k, j] == b]
+        if mates:
+            out.append((j, mates))
+    return out
+
+
+def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> np.ndarray:
+    """Per ball (K) and camera: a nearer ball of another colour covers part of its disc there (K x C bool).
+
+    Its blob is then cut by the other ball's outline, and the centroid of
+    what is left is not the ball's centre, even while the blob still looks
+    about ball-sized (a disc cut on one side keeps its other extent).
+    """
+    out = np.zeros((len(positions), len(cameras)), bool)
+    if occluders is None or not len(occluders[0]) or not len(positions):
+        return out
+    centres, radii = occluders
+    for j, cam in enumerate(cameras):
+        uv, front, z = cam.view(positions)
+        ouv, ofront, oz = cam.view(centres)
+        r = cam.focal_px * radius / np.maximum(z, 1e-6)
+        orad = cam.focal_px * radii / np.maximum(oz, 1e-6)
+        apart = np.linalg.norm(uv[:, None] - ouv[None], axis=2)
+        out[:, j] = (front[:, None] & ofront[None] & (oz[None] < z[:, None]) & (apart < r[:, None] + orad[None])).any(axis=1)
+    return out
+
+
+def _clean_views(
+    i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings
+):
+    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size and not cut by a nearer
+    ball of another colour, [(camera, mates)] where it shares its blob)."""
+    shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
+    in_shared = {j for j, _ in shared}
+    good = [
+        j
+        for j in range(blob_ids.shape[1])
+        # unseen, clipped or occluded in a camera: not clean there
+        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance and not hidden[n, j]
+    ]
+    return good, shared
+
+
+def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted) -> list[Object3D]:
+    """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
+
+    Balls with two or more clean views are triangulated together (one call per set of cameras); a
+    ball with one clean view takes its ray and a depth (``_one_view``). A ball that shares a blob is
+    then placed against the other balls' discs there, one ball at a time, each against the latest
+    positions of the others.
+    """
+    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, settings) for n, i in enumerate(kept)}
+    out = {i: merged[i] for i in kept}
+    by_cameras: dict[tuple[int, ...], list[int]] = {}
+    for i in kept:
+        if len(views[i][0]) >= 2:
+            by_cameras.setdefault(tuple(views[i][0]), []).append(i)
+    for good, idx in by_cameras.items():
+        px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
+        # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
+        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, settings.centroid_sigma_px)
+        for i, point, cov in zip(idx, points, covs):
+            if np.linalg.norm(point - merged[i].position) <= 3 * settings.radius:  # else the blobs disagree with the particles
+                out[i] = replace(merged[i], position=point, covariance=cov)
+    one_view = [i for i in kept if len(views[i][0]) == 1]
+    for i in one_view:
+        out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted)
+    if settings.disc_fit:
+        positions = {i: o.position for i, o in out.items()}
+        for i in one_view:
+            if views[i][1]:
+                out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted, positions)
+                positions[i] = out[i].position
+    return [out[i] for i in kept]
+
+
+def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None) -> Object3D:
+    """One clean view: its ray fixes the direction, the particles (or the shared blobs) the distance along it.
+
+    The covariance says so (tight across the ray, the depth's uncertainty
+    along it), so the track's Kalman filter leans on its own prediction for
+    the depth. ``positions`` (the other balls' latest positions) enables the
+    disc fit through shared blobs.
+    """
+    j = good[0]
+    o, d = rays[j][0][blob_ids[i, j]], rays[j][1][blob_ids[i, j]]
+    spread = float(d @ obj.covariance @ d)
+    along = max(spread, settings.one_view_depth_sigma**2)
+    own = float((obj.position - o) @ d)
+    if np.linalg.norm(obj.position - (o + d * own)) > 3 * settings.radius:
+        return obj  # the blob and the particles disagree: trust the particles
+    # Only a blob shared with another ball, with the particles spread wide along the ray, makes
+    # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
+    ambiguous = bool(shared) and spread > settings.one_view_depth_sigma**2
+    depth = _depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own
+    # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
+    # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
+    fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
+    if fit is not None:
+        depth, along = fit.depth, max(fit.sigma, settings.disc_fit_sigma) ** 2
+    point = o + d * depth
+    z = float(cameras[j].depth(point[None])[0])
+    across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
+    cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
+    return replace(obj, position=point, covariance=cov)
+
+
+def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) -> RayFit | None:
+    """Depth along a clean view's ray at which this ball's disc and the other balls' discs make up the
+    blobs they share (see discs.py); None when it cannot be measured."""
+    if positions is None or any(blobs[j].boxes is None for j, _ in shared):
+        return None
+    half = 3.0 * np.sqrt(along)
+    lo = max(depth - half, 0.05)
+    depths = lo + (depth + half - lo) * _DEPTH_STEPS
+    candidates = o + depths[:, None] * d
+    mismatch = np.zeros(len(depths))
+    area = 0.0
+    for j, mates in shared:
+        others = np.array([positions[k] for k in mates])
+        mismatch += union_mismatch(cameras[j], blobs[j], int(blob_ids[i, j]), candidates, others, settings.radius)
+        z = float(cameras[j].depth((o + depth * d)[None])[0])
+        area += np.pi * (cameras[j].K[0, 0] * settings.radius / max(z, 0.05)) ** 2
+    return depth_on_ray(mismatch, depths, depth, np.sqrt(along), settings.disc_fit_tolerance * area)

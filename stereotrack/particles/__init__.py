@@ -1,0 +1,6 @@
+"""Particles: the mixed CONDENSATION + abductive population of each target (paper Table I).
+
+- ``likelihood.py``: how well a particle's projections match the evidence (paper eq. 14).
+- ``proposal.py``: abductive particles on the viewing rays of blobs and where rays cross.
+- ``population.py``: the population's step (resample, move, propose, weigh).
+"""

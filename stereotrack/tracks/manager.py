@@ -1,0 +1,287 @@
+"""Persistent identities: objects found each frame -> tracks with the same id over time.
+
+Each track is a constant-velocity Kalman filter on (position, velocity), with
+gravity as a known acceleration when the world's up axis is set and the
+ball flies freely (see ``in_free_flight``). Every frame
+the tracks are predicted to the frame's time (dt from timestamps, not frame
+counts), this frame's objects are assigned to them globally (Hungarian,
+``scipy.optimize.linear_sum_assignment``) inside a Mahalanobis gate, and the
+lifecycle moves on:
+
+    tentative --(seen for confirm_time s)--> confirmed <--> coasting --(unseen for delete_time s)--> deleted
+    tentative --(unseen for tentative_time s)--> deleted
+
+All limits are in seconds, so a run behaves the same at 15, 30 or 60 fps.
+Objects of different targets never match each other; ids are positive
+integers unique across targets within a run.
+
+The motion noise is continuous white acceleration (spectral density
+``accel_noise``): unlike a per-frame noise it integrates to the same
+uncertainty over one second whatever the frame rate. A track unseen for a
+while simply keeps growing its covariance by the motion model (we do not
+"square the covariance when occluded": with variances below 1 m^2 that would
+shrink it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ..camera import Rig
+from ..config import TrackSettings
+from ..kernels import association_costs, kalman_correct, kalman_predict
+from ..results import Object3D, TrackEstimate
+
+_EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
+_FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
+_INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
+
+TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
+
+
+@dataclass(eq=False)
+class _Track:
+    """One track's mutable filter state (private: the outside world sees TrackEstimate)."""
+
+    track_id: int
+    target: str
+    x: np.ndarray  # 6: position (m), velocity (m/s)
+    P: np.ndarray  # 6 x 6 covariance
+    time: float  # time of x and P, seconds
+    born: float  # time of the first hit
+    last_hit: float  # time of the latest hit
+    confirmed: bool = False
+    hit: bool = True  # matched in the latest update
+    contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
+    n_particles: int = 0
+    history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
+    in_flight: bool = False  # gravity applies to its prediction
+    prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
+
+
+def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constant-velocity transition over ``dt`` seconds: (F 6x6, Q 6x6, b 6) with x' = F x + b.
+
+    Q is the continuous white-acceleration model (q = accel_noise m^2/s^3),
+    b the known gravity acceleration (zero when ``gravity`` is None).
+    """
+    i = np.arange(3)
+    F = np.eye(6)
+    F[i, i + 3] = dt
+    q = accel_noise
+    Q = np.zeros((6, 6))
+    Q[i, i] = q * dt**3 / 3
+    Q[i, i + 3] = Q[i + 3, i] = q * dt**2 / 2
+    Q[i + 3, i + 3] = q * dt
+    b = np.zeros(6)
+    if gravity is not None:
+        b[:3] = 0.5 * gravity * dt * dt
+        b[3:] = gravity * dt
+    return F, Q, b
+
+
+def in_free_flight(times: np.ndarray, positions: np.ndarray, gravity: np.ndarray) -> bool:
+    """Does a parabola fitted to these positions accelerate like gravity (within half of g) rather than not at all?"""
+    t = times - times.mean()
+    A = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
+    coef, *_ = np.linalg.lstsq(A, positions, rcond=None)
+    accel = coef[2]
+    return bool(np.linalg.norm(accel - gravity) < 0.5 * np.linalg.norm(gravity))
+
+
+class TrackManager:
+    """Keeps identities over time for every target's objects.
+
+    >>> manager = TrackManager(config.tracks)
+    >>> for frame in frames:
+    ...     hints = manager.predicted(frame.time)       # where live tracks should be now
+    ...     objects = ...                               # this frame's Object3Ds
+    ...     tracks = manager.update(objects, frame.time)
+    """
+
+    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None):
+        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view."""
+        self.settings = settings or TrackSettings()
+        self.rig = rig
+        up = self.settings.up
+        self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
+        self._tracks: list[_Track] = []
+        self._next_id = 1
+        self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    # ------------------------------------------------------------------ public
+
+    def predicted(self, time: float) -> tuple[TrackEstimate, ...]:
+        """Every live track predicted to ``time`` (seconds), without changing any state.
+
+        Positions, velocities and position covariances come from the motion
+        model alone (no measurement of this frame); ``state`` is the track's
+        state after the previous update. Call it before ``update`` with the
+        same time, e.g. to keep particles of one ball out of another ball.
+        """
+        states = [self._predict(tr, time) for tr in self._tracks]
+        seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
+        return tuple(self._estimate(tr, x, P, v) for tr, (x, P), v in zip(self._tracks, states, seen))
+
+    def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
+        """Take this frame's objects (seen at ``time`` seconds); return every live track after the update.
+
+        Deleted tracks are gone from the result; ``state`` tells tentative,
+        confirmed (seen this frame) and coasting (confirmed, unseen this frame).
+        """
+        s = self.settings
+        for tr in self._tracks:
+            tr.x, tr.P = self._predict(tr, time)
+            tr.time = time
+            tr.hit = False
+            tr.contested = False
+        by_target: dict[str, list[int]] = {}
+        for i, obj in enumerate(objects):
+            by_target.setdefault(obj.target, []).append(i)
+        for target, idx in by_target.items():
+            objs = [objects[i] for i in idx]
+            z = np.array([o.position for o in objs], float).reshape(-1, 3)
+            R = self._measurement_covs(objs)
+            free = np.ones(len(objs), bool)
+            # Confirmed (and coasting) tracks choose first, so a clutter track never steals a ball's object.
+            for stage in (True, False):
+                tracks = [t for t in self._tracks if t.target == target and t.confirmed == stage]
+                cols = np.flatnonzero(free)
+                if not tracks or not len(cols):
+                    continue
+                for ti, cj in self._assign(tracks, z[cols], R[cols]):
+                    j = cols[cj]
+                    self._correct(tracks[ti], z[j], R[j], objs[j], time)
+                    free[j] = False
+            # A missed track with an unmatched object of its colour nearby was lost by its motion model
+            # (an abrupt catch): its prediction is not worth reporting.
+            spare = z[free]
+            for t in self._tracks:
+                if t.target == target and not t.hit:
+                    t.contested = bool(len(spare)) and np.min(np.linalg.norm(spare - t.x[:3], axis=1)) < 0.2
+            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects).
+            live = np.array([t.x[:3] for t in self._tracks if t.target == target]).reshape(-1, 3)
+            for j in np.flatnonzero(free):
+                if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
+                    continue
+                self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time))
+                live = np.vstack([live, z[j]])
+        self._tracks = [t for t in self._tracks if not self._expired(t, time)]
+        seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
+        return tuple(self._estimate(t, t.x, t.P, v) for t, v in zip(self._tracks, seen))
+
+    def reset(self) -> None:
+        """Forget every track (ids keep counting up: they stay unique within the run)."""
+        self._tracks = []
+
+    def __len__(self) -> int:
+        return len(self._tracks)
+
+    # ------------------------------------------------------------------ steps
+
+    def _predict(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray]:
+        dt = max(0.0, time - tr.time)
+        if dt == 0.0:
+            return tr.x.copy(), tr.P.copy()
+        if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
+            return tr.prediction[3].copy(), tr.prediction[4].copy()
+        F, Q, b = self._motion_model(dt, tr.in_flight)
+        x, P = kalman_predict(tr.x, tr.P, F, Q, b)
+        tr.prediction = (time, tr.time, tr.in_flight, x, P)
+        return x.copy(), P.copy()
+
+    def _motion_model(self, dt: float, in_flight: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``motion_model`` for this manager, remembered per (dt, in flight): every track of a frame shares dt."""
+        key = (dt, in_flight)
+        if key not in self._models:
+            if len(self._models) > 16:
+                self._models.clear()
+            self._models[key] = motion_model(dt, self.settings.accel_noise, self.gravity if in_flight else None)
+        return self._models[key]
+
+    def _measurement_covs(self, objs: Sequence[Object3D]) -> np.ndarray:
+        """Per object (M x 3 x 3): the measurement noise plus the object's own covariance (symmetrised;
+        a missing or non-finite one counts zero)."""
+        zero = np.zeros((3, 3))
+        covs = np.array([zero if o.covariance is None or np.shape(o.covariance) != (3, 3) else o.covariance for o in objs], float).reshape(
+            -1, 3, 3
+        )
+        covs[~np.isfinite(covs).all(axis=(1, 2))] = zero
+        R = np.eye(3) * self.settings.measurement_sigma**2 + 0.5 * (covs + covs.transpose(0, 2, 1))
+        if self.settings.measurement_sigma <= 0:  # zero noise everywhere: keep the filter invertible
+            R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
+        return R
+
+    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray) -> list[tuple[int, int]]:
+        """Gated global assignment: pairs (track index, object index) with squared Mahalanobis distance <= gate."""
+        pos = np.array([t.x[:3] for t in tracks])  # T x 3
+        Pp = np.array([t.P[:3, :3] for t in tracks])  # T x 3 x 3
+        # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
+        d2, cost = association_costs(pos, Pp, np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
+        gated = d2 <= self.settings.gate
+        rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
+        return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]
+
+    def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+        tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
+        tr.hit = True
+        tr.last_hit = time
+        self._follow_flight(tr, z, R, time)
+        tr.n_particles = int(obj.n_particles)
+        if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
+            tr.confirmed = True
+
+    def _follow_flight(self, tr: _Track, z: np.ndarray, R: np.ndarray, time: float) -> None:
+        """Gravity only for a ball in free flight: a pendulum, a held or a rolling ball is not falling."""
+        if self.gravity is None:
+            return
+        if np.trace(R) < 3 * _FLIGHT_FIT_SIGMA**2:
+            tr.history.append((time, np.array(z, float)))
+        tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + _EPS_TIME]
+        times = np.array([t for t, _ in tr.history])
+        if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
+            tr.in_flight = in_free_flight(times, np.array([p for _, p in tr.history]), self.gravity)
+
+    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> _Track:
+        P = np.zeros((6, 6))
+        P[:3, :3] = R
+        P[3:, 3:] = np.eye(3) * self.settings.init_speed_sigma**2
+        tr = _Track(self._next_id, target, np.r_[z, 0.0, 0.0, 0.0], P, time, time, time, n_particles=int(obj.n_particles))
+        tr.confirmed = self.settings.confirm_time <= _EPS_TIME
+        self._next_id += 1
+        return tr
+
+    def _expired(self, tr: _Track, time: float) -> bool:
+        limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
+        return time - tr.last_hit > limit + _EPS_TIME
+
+    def _in_view(self, positions: np.ndarray) -> np.ndarray:
+        """Per position: inside every camera's image (always true without a rig)."""
+        inside = np.ones(len(positions), bool)
+        if self.rig is None or not len(positions):
+            return inside
+        for cam in self.rig.cameras:
+            uv, ok = cam.project(positions)
+            inside &= ok & cam.in_image(uv)
+        return inside
+
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool) -> TrackEstimate:
+        state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
+        # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
+        # still reported, at its predicted position, for at most report_coasting seconds.
+        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view
+        reported = tr.confirmed and (tr.hit or coasting_ok)
+        return TrackEstimate(
+            track_id=tr.track_id,
+            target=tr.target,
+            position=x[:3].copy(),
+            velocity=x[3:].copy(),
+            covariance=P[:3, :3].copy(),
+            state=state,
+            n_particles=tr.n_particles,
+            reported=bool(reported),
+        )
