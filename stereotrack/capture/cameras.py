@@ -160,7 +160,8 @@ class _CameraThread(threading.Thread):
         super().__init__(name=f"capture-{spec}", daemon=True)  # a hung device must not keep the process alive
         self.source, self.slot, self.device, self.spec = source, slot, device, spec
         self.frames = 0
-        self.last_frame: float | None = None
+        self.last_frame: float | None = None  # capture time of the last frame
+        self.last_seen: float | None = None  # clock time it was delivered (a late file frame has an old capture time)
         self.ended = False  # a finite device (file) reached its end
         self.error: str | None = None
         self.recent: deque = deque()  # timestamps of the last two seconds, for fps
@@ -195,6 +196,7 @@ class _CameraThread(threading.Thread):
                     jpeg, image = encode_jpeg(image, quality), None  # recorded as JPEG: everyone sees the same pixels
                 self.frames += 1
                 self.last_frame = stamp
+                self.last_seen = clock()
                 self.recent.append(stamp)
                 while self.recent and stamp - self.recent[0] > 2.0:
                     self.recent.popleft()
@@ -374,12 +376,12 @@ class CameraPairSource:
                 raise StereotrackError(th.error)
             if th.ended:
                 raise StopIteration  # a video file ended: no more pairs can form
-            if th.last_frame is None:
+            if th.last_seen is None:
                 if now - self._started > self.start_timeout:
                     raise StereotrackError(
                         f"camera {name} ({describe(th.spec)}) delivered no frame in {self.start_timeout:.0f} s (check the device and its settings)"
                     )
-            elif now - th.last_frame > self.stall_timeout:
+            elif now - th.last_seen > self.stall_timeout:
                 raise StereotrackError(
                     f"camera {name} ({describe(th.spec)}) delivered no frame for {self.stall_timeout:.1f} s (unplugged or stalled?)"
                 )

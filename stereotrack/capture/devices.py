@@ -351,7 +351,7 @@ class VideoFileCamera:
         if self._start is None:
             self._start = now
         period = 1.0 / self._fps
-        while now - (self._start + self._k * period) > self.BUFFERED * period:  # late: this frame was overwritten
+        while time.monotonic() - (self._start + self._k * period) > self.BUFFERED * period:  # late: this frame was overwritten
             if self._interrupted.is_set() or not self._cap.grab():
                 return False
             self._k += 1

@@ -161,8 +161,9 @@ def _track(args, default_out: Path | None, stopper) -> int:
     if stopper.requested:
         not_tracked.append(f"stopped by {stopper.signal_name}")
     untracked = f" ({'; '.join(not_tracked)})" if not_tracked else ""
+    of = f" of {len(wanted)}" if summary.frames != len(wanted) else ""  # the summary says so when frames were left out
     info(
-        f"tracked {summary.frames} of {len(wanted)} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
+        f"tracked {summary.frames}{of} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
         f"tracker step median {summary.median_step_ms:.1f} ms){untracked}: {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
     )
     info(f"tracks written to {out}")

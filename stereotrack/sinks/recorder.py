@@ -47,6 +47,8 @@ class RecordingSink:
         self.rig = rig
         self.writer_options = writer_options
         self.codec = writer_options.get("codec", "mjpg")
+        import av  # noqa: F401  # loaded now: loading its libraries holds the GIL for a second, which would starve the cameras
+
         self.writer: RecordingWriter | None = None
         self.error: BaseException | None = None
         self.refused = 0
