@@ -55,7 +55,7 @@ def test_systematic_resampling_is_proportional():
 
 
 def test_compiled_log_gauss_matches_the_textbook_formula():
-    from stereotrack.kernels import log_gauss
+    from stereotrack.objects.kernels import log_gauss
 
     rng = np.random.default_rng(3)
     X = rng.normal([0.1, 1.5, -0.2], 0.2, (300, 3))

@@ -28,16 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..camera import Camera, stacked_kernel_arrays
-from ..kernels import (
-    greedy_seeds,
-    hard_labels,
-    keep_heavy,
-    label_moments,
-    merge_one_ball_clusters,
-    projected_spreads,
-    systematic_resample,
-    weighted_em,
-)
+from ..particles.kernels import systematic_resample
+from .kernels import greedy_seeds, hard_labels, keep_heavy, label_moments, merge_one_ball_clusters, projected_spreads, weighted_em
 
 
 @dataclass(frozen=True)

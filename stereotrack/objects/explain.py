@@ -37,9 +37,9 @@ import numpy as np
 
 from ..camera import Camera, triangulate_with_covariance
 from ..evidence.blobs import Blobs
-from ..kernels import blob_signature
 from ..results import Object3D
 from .discs import RayFit, depth_on_ray, union_mismatch
+from .kernels import blob_signature
 
 
 @dataclass(frozen=True)

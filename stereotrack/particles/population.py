@@ -25,8 +25,8 @@ import numpy as np
 from ..camera import Camera
 from ..config import TrackerSettings
 from ..evidence.blobs import Blobs
-from ..kernels import intruders
 from ..objects.clustering import systematic_indices
+from .kernels import intruders
 from .likelihood import likelihood
 from .proposal import depth_range_from_size, particles_on_rays, ray_crossings
 
