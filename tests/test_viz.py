@@ -556,7 +556,7 @@ def test_live_sink_skips_frames_rather_than_hold_the_tracker(tmp_path, monkeypat
 
 def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
     """Frames are sent as columns in batches; the file holds the same as if each frame were sent on its own."""
-    import stereotrack.viz as viz
+    import stereotrack.sinks.viewer.sink as viz  # the module whose constants the sink reads
 
     truth = truth_for(range(12))
     files = {}
@@ -584,13 +584,13 @@ def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
 
 
 def test_a_slow_camera_gets_its_frames_sent_without_a_full_batch(tmp_path, monkeypatch):
-    import stereotrack.viz as viz
+    import stereotrack.sinks.viewer.sink as viz  # the module whose constants the sink reads
 
     rig, rng = make_rig(), np.random.default_rng(0)
     monkeypatch.setattr(viz, "FILE_BATCH_SECONDS", viz.BATCH_SECONDS)  # as when a viewer watches (a file alone waits longer)
     sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "slow.rrd"), VizSettings(images=False))
-    sent, send = [], sink._send
-    monkeypatch.setattr(sink, "_send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
+    sent, send = [], sink.columns.send
+    monkeypatch.setattr(sink.columns, "send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
     start = time.monotonic()
     for f in range(2):
         sink.write(make_result(rig, f, rng, n_particles=60))
