@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..camera import Camera, stacked_kernel_arrays
-from ..particles.kernels import systematic_resample
+from ..particles.resampling import systematic_indices
 from .kernels import greedy_seeds, hard_labels, keep_heavy, label_moments, merge_one_ball_clusters, projected_spreads, weighted_em
 
 
@@ -76,11 +76,6 @@ def _sklearn_em(X, w, means, covs, iterations, reg, rng):
     gm.fit(Xs)
     resp = gm.predict_proba(X)
     return gm.means_, gm.covariances_, gm.weights_, resp
-
-
-def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Systematic resampling: n indices drawn with probabilities ``weights`` (summing to 1)."""
-    return systematic_resample(np.ascontiguousarray(weights, dtype=float), n, rng.random())
 
 
 def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:

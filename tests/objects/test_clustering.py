@@ -1,7 +1,8 @@
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
-from stereotrack.clustering import ClusterSettings, cluster_particles, systematic_indices
+from stereotrack.objects.clustering import ClusterSettings, cluster_particles
+from stereotrack.particles.resampling import systematic_indices
 
 
 def ball_cloud(rng, centre, n, rig):
