@@ -45,18 +45,8 @@ class Tracker:
         self.populations = {
             t.name: Population(rig.cameras, s, t.radius, np.random.default_rng(root.integers(2**63))) for t in config.targets
         }
-        self.cluster_settings = {
-            t.name: ClusterSettings(
-                radius=t.radius,
-                min_likelihood=s.cluster_min_likelihood,
-                min_mass=s.cluster_min_mass,
-                min_particles=s.cluster_min_particles,
-                max_objects=s.max_objects,
-                method=s.em,
-            )
-            for t in config.targets
-        }
-        self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine, disc_fit=s.disc_fit) for t in config.targets}
+        self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
+        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks, rig)
