@@ -1,4 +1,4 @@
-"""Recording and replay soaks (issue 15): the long versions of tests/test_capture_stops.py.
+"""Recording and replay soaks (issue 15): the long versions of tests/capture/test_stops.py.
 
     .venv/bin/python benchmarks/recording_soak.py codecs          # encode/decode cost and size per frame (~2 min)
     .venv/bin/python benchmarks/recording_soak.py record          # 60 s of two 1280x720 60 fps cameras, then replay (~4 min)
@@ -30,7 +30,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests" / "capture"))
 
 
 def stereotrack(*args) -> list[str]:
@@ -243,7 +243,7 @@ PATIENT = ["--stall-timeout", "10"]
 
 
 def kills(n: int = 20, sigkill: bool = True) -> None:
-    from test_capture_stops import decodable, frames_csv_rows, wait_for_rows, write_video
+    from test_stops import decodable, frames_csv_rows, wait_for_rows, write_video
 
     from stereotrack.recording import open_recording
 

@@ -4,10 +4,12 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.cameras import CameraPairSource, Pairer
+from stereotrack.capture.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.replay import RecordingSource, paced
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair, RecordingWriter, decode_jpeg
-from stereotrack.sources import CameraPairSource, Pairer, RecordingSource, paced
+from stereotrack.frames import FramePair
+from stereotrack.recording import RecordingWriter, decode_jpeg
 
 FPS = 30.0
 PERIOD = 1.0 / FPS
