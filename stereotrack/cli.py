@@ -45,10 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from .capture.signals import install
+    from .capture.signals import act_on_pending, install
 
     install()  # first: SIGINT/SIGTERM handled explicitly from here on, even if a script started us with SIGINT ignored
     try:
+        act_on_pending()  # a signal while the package loaded (stereotrack/__init__.py) stops us here
         return _main(argv)
     except KeyboardInterrupt as exc:  # a stop signal outside a capture/tracking loop (see capture/signals.py)
         if getattr(exc, "debug", False):

@@ -35,12 +35,17 @@ class Interrupted(KeyboardInterrupt):
 
 class _State:
     installed = False
+    starting = False  # the command line is still loading: note a signal, act on it once main() runs
+    pending: str | None = None
     previous: dict = {}
     scopes: list[StopOnSignals] = []
 
 
 def _handle(signum, frame) -> None:
     name = signal.Signals(signum).name
+    if _State.starting:
+        _State.pending = _State.pending or name
+        return
     if not _State.scopes or _State.scopes[-1].requested:
         raise Interrupted(name)
     for scope in list(_State.scopes):  # nested blocks (a command's and its loop's) all learn of it
@@ -48,14 +53,28 @@ def _handle(signum, frame) -> None:
             scope._request(name)
 
 
-def install() -> bool:
-    """Handle SIGINT and SIGTERM explicitly (main thread only); True if installed now."""
+def install(starting: bool = False) -> bool:
+    """Handle SIGINT and SIGTERM explicitly (main thread only); True if installed now.
+
+    ``starting`` (the package loading as the command line): a signal is only noted
+    until ``act_on_pending()`` runs, so no half-imported module raises it.
+    """
+    if starting and not _State.installed:
+        _State.starting = True
     if _State.installed or threading.current_thread() is not threading.main_thread():
         return False
     for sig in STOP_SIGNALS:
         _State.previous[sig] = signal.signal(sig, _handle)
     _State.installed = True
     return True
+
+
+def act_on_pending() -> None:
+    """End the start-up phase: a signal that came while the command line loaded interrupts now."""
+    _State.starting = False
+    if _State.pending is not None:
+        name, _State.pending = _State.pending, None
+        raise Interrupted(name)
 
 
 def uninstall() -> None:
