@@ -351,7 +351,11 @@ class VideoFileCamera:
         if self._start is None:
             self._start = now
         period = 1.0 / self._fps
-        while time.monotonic() - (self._start + self._k * period) > self.BUFFERED * period:  # late: this frame was overwritten
+        # Late by more than the driver's buffers: those frames were overwritten. At most that many go per
+        # frame delivered, so a host that decodes slower than the frame rate still gets frames, not the end.
+        for _ in range(self.BUFFERED):
+            if time.monotonic() - (self._start + self._k * period) <= self.BUFFERED * period:
+                break
             if self._interrupted.is_set() or not self._cap.grab():
                 return False
             self._k += 1

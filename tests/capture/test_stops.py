@@ -22,6 +22,9 @@ from stereotrack.recording import open_recording
 
 ROOT = Path(__file__).resolve().parents[2]
 SIM = ["--width", "320", "--height", "240", "--fps", "30"]
+# A file camera on a machine loaded several times over can get no CPU for the default 2 s stall timeout
+# and end the recording as if unplugged; these tests are about stopping, so give it longer.
+PATIENT = ["--stall-timeout", "10"]
 
 
 def stereotrack(*args) -> list[str]:
@@ -146,7 +149,7 @@ def test_video_file_cameras_stop_cleanly_on_ctrl_c_and_sigterm(tmp_path, clips):
     for k, sig in enumerate([signal.SIGINT, signal.SIGTERM] * 2):
         out = tmp_path / f"s{k}"
         proc = subprocess.Popen(
-            stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), "--out", str(out)),
+            stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), *PATIENT, "--out", str(out)),
             cwd=ROOT,
             stderr=subprocess.PIPE,
             text=True,
@@ -165,7 +168,7 @@ def test_video_files_of_uneven_length_end_the_recording_cleanly(tmp_path, clips)
         out = tmp_path / f"u{k}"
         cams = [str(clips / "a.mkv"), str(clips / "short.mkv")][:: 1 if k == 0 else -1]
         res = subprocess.run(
-            stereotrack("record", "--cam0", cams[0], "--cam1", cams[1], "--out", str(out)),
+            stereotrack("record", "--cam0", cams[0], "--cam1", cams[1], *PATIENT, "--out", str(out)),
             cwd=ROOT,
             capture_output=True,
             text=True,
@@ -181,7 +184,7 @@ def test_video_files_keep_their_timing_by_skipping_late_frames(tmp_path, clips):
     machine (a late camera skips frames instead of drifting behind the other)."""
     out = tmp_path / "t"
     res = subprocess.run(
-        stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), "--out", str(out)),
+        stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), *PATIENT, "--out", str(out)),
         cwd=ROOT,
         capture_output=True,
         text=True,
