@@ -8,9 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..frames import FramePair
+from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import Recording, open_recording
-from .cameras import CameraStats, SourceStats
 
 
 def paced(

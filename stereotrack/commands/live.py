@@ -113,6 +113,8 @@ def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = 
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     import numpy as np
 
     from ..camera import load_rig
@@ -120,9 +122,8 @@ def run(args: argparse.Namespace) -> int:
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
     from ..sinks.recorder import RecordingSink
-    from ..sinks.tracks_csv import TracksCsvSink
-    from .track import make_tracker
 
     specs = camera_specs(args)
     settings = capture_settings(args)
@@ -149,18 +150,8 @@ def run(args: argparse.Namespace) -> int:
                 f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}"
             )
 
-    sinks = []
-    if args.out:
-        sinks.append(TracksCsvSink(args.out))
-    from ..sinks.viewer.flags import make_viz_sink
-
-    viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
-    if viz is not None:
-        sinks.append(viz)
     recorder = None
     if args.record:
-        from pathlib import Path
-
         out = Path(args.record)
         if out.exists() and any(out.iterdir()):
             raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
@@ -177,7 +168,9 @@ def run(args: argparse.Namespace) -> int:
             targets=config_to_dict(config),
             extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))},
         )
-        sinks.append(recorder)
+
+    sinks = open_sinks(args, rig, config, tracks_csv=Path(args.out) if args.out else None, live=True, extra=[recorder] if recorder else [])
+    viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
 
     # queue_size=1: the tracker always gets the newest pair; latency cannot build up
     source = CameraPairSource(specs, [c.name for c in rig.cameras], settings, rig=rig, queue_size=1, stall_timeout=args.stall_timeout)
