@@ -15,9 +15,9 @@ import importlib
 
 _WHERE = {
     "CameraPairSource": "cameras",
-    "CameraStats": "cameras",
+    "CameraStats": "..frames",
     "Pairer": "cameras",
-    "SourceStats": "cameras",
+    "SourceStats": "..frames",
     "RecordingSource": "replay",
     "paced": "replay",
     "StopOnSignals": "signals",
@@ -28,5 +28,6 @@ __all__ = sorted(_WHERE)
 
 def __getattr__(name: str):
     if name in _WHERE:
-        return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        where = _WHERE[name]
+        return getattr(importlib.import_module(where if where.startswith(".") else f".{where}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

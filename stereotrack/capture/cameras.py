@@ -35,35 +35,9 @@ import numpy as np
 
 from ..camera import Rig
 from ..errors import StereotrackError
-from ..frames import FramePair
+from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import decode_jpeg, encode_jpeg
 from .devices import CaptureSettings, VideoDevice, describe, open_device
-
-
-@dataclass(frozen=True)
-class CameraStats:
-    name: str
-    device: str
-    frames: int  # frames grabbed
-    fps: float  # measured over the last two seconds
-    dropped: int  # pairs with a frame of this camera the consumer skipped (it was busy)
-    unpaired: int  # frames with no partner within the pairing tolerance
-
-
-@dataclass(frozen=True)
-class SourceStats:
-    cameras: tuple[CameraStats, ...]
-    pairs: int  # pairs handed to the consumer
-    pairs_dropped: int  # pairs the consumer skipped because it was busy
-    formed: int = 0  # pairs formed (each went to the recorder, if any)
-    not_recorded: int = 0  # pairs lost because the recorder's queue was full (disk too slow)
-
-    def line(self) -> str:
-        """One status line: frames/s per camera, pair counts, unpaired frames."""
-        fps = " ".join(f"{c.name} {c.fps:4.1f} fps" for c in self.cameras)
-        unpaired = "/".join(str(c.unpaired) for c in self.cameras)
-        lost = f" | not recorded {self.not_recorded}" if self.not_recorded else ""
-        return f"{fps} | pairs {self.formed} | skipped {self.pairs_dropped}{lost} | unpaired {unpaired}"
 
 
 @dataclass(frozen=True, eq=False)

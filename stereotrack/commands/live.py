@@ -184,19 +184,17 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _live_session(args, specs, settings, rig, config, stopper):
+    from pathlib import Path
+
     from ..capture.cameras import CameraPairSource
     from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
     from ..recording import JPEG_QUALITY
     from ..sinks.recorder import RecordingSink, TrackedFramesSink
-    from ..sinks.tracks_csv import TracksCsvSink
-    from ..sinks.viewer.flags import make_viz_sink
-    from .track import make_tracker
 
     names = [c.name for c in rig.cameras]
     recorder = None
     if args.record:
-        from pathlib import Path
-
         from ..config import config_to_dict
 
         out = Path(args.record)
@@ -214,14 +212,9 @@ def _live_session(args, specs, settings, rig, config, stopper):
             extra_meta={"devices": dict(zip(names, specs))},
         )
     tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
-    sinks = []
-    if args.out:
-        sinks.append(TracksCsvSink(args.out))
-    viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
-    if viz is not None:
-        sinks.append(viz)
-    if recorder is not None:
-        sinks.append(TrackedFramesSink(recorder))
+    extra = [TrackedFramesSink(recorder)] if recorder is not None else []
+    sinks = open_sinks(args, rig, config, tracks_csv=Path(args.out) if args.out else None, live=True, extra=extra)
+    viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
     # queue_size=1: the tracker always gets the newest pair; latency cannot build up
     source = CameraPairSource(
         specs,

@@ -71,18 +71,6 @@ def with_recording_up(config, recording):
     return replace(config, tracks=replace(config.tracks, up=up_axis(up, f"{recording.folder / 'meta.yaml'}: 'up'")))
 
 
-def make_tracker(method: str, rig, config, keep_rays: bool = False):
-    if method == "baseline":
-        from ..pipeline.baseline import BaselineTracker
-
-        return BaselineTracker(rig, config)
-    from ..console import notice_if_slow
-    from ..pipeline.tracker import Tracker
-
-    with notice_if_slow("compiling the tracker's kernels (first run on this machine only: up to a minute) ..."):
-        return Tracker(rig, config, keep_rays=keep_rays)
-
-
 def track_recording(args, default_out: Path | None = None) -> int:
     """Shared by `track` and `demo`. A signal stops it cleanly: outputs complete up to the last frame tracked."""
     from ..capture.signals import Interrupted, StopOnSignals
@@ -97,12 +85,13 @@ def track_recording(args, default_out: Path | None = None) -> int:
 def _track(args, default_out: Path | None, stopper) -> int:
     import numpy as np
 
-    from ..capture.replay import paced
+    from ..capture.replay import RecordingSource
     from ..console import info, warn
     from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import run_pipeline
     from ..recording import open_recording, read_truth
-    from ..sinks.tracks_csv import TracksCsvSink, read_tracks
+    from ..sinks.tracks_csv import read_tracks
 
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
@@ -118,16 +107,10 @@ def _track(args, default_out: Path | None, stopper) -> int:
     out = Path(args.out) if args.out else (default_out or rec.folder / "tracks.csv")
     truth = read_truth(rec.truth_path) if rec.truth_path else None
     tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
-    sinks = [TracksCsvSink(out)]
-    from ..sinks.viewer.flags import make_viz_sink
-
-    viz_sink = make_viz_sink(args, rig, config, truth=truth)  # None when no viewer flag is given
-    if viz_sink is not None:
-        sinks.append(viz_sink)
-    frames = rec.frames(args.start, stop, only=None if len(wanted) == stop - args.start else wanted)
-    skipped: list[int] = []
-    if args.realtime:
-        frames = paced(frames, rec.timestamps[wanted], on_skip=lambda pair: skipped.append(pair.index))
+    sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth)
+    viz_sink = next((s for s in sinks if hasattr(s, "rrd_path")), None)
+    only = None if len(wanted) == stop - args.start else wanted
+    source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop, only=only)
     objects_seen = {t.name: 0 for t in config.targets}
     tracked: list[int] = []
 
@@ -145,11 +128,12 @@ def _track(args, default_out: Path | None, stopper) -> int:
             if stopper.requested:
                 break
             yield pair
-        close = getattr(pairs, "close", None)
-        if close is not None:
-            close()  # the readers stop before the sinks are finalised
 
-    summary = run_pipeline(until_stopped(frames), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted))
+    try:
+        summary = run_pipeline(until_stopped(source), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted))
+    finally:
+        source.close()  # the readers stop before anything else
+    skipped = source.stats.pairs_dropped
     for name, count in objects_seen.items():
         if count == 0 and not stopper.requested:
             warn(
@@ -157,7 +141,7 @@ def _track(args, default_out: Path | None, stopper) -> int:
             )
     not_tracked = []
     if skipped:
-        not_tracked.append(f"{len(skipped)} skipped because the tracker ran late (--realtime)")
+        not_tracked.append(f"{skipped} skipped because the tracker ran late (--realtime)")
     if stopper.requested:
         not_tracked.append(f"stopped by {stopper.signal_name}")
     untracked = f" ({'; '.join(not_tracked)})" if not_tracked else ""

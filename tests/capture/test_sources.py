@@ -298,3 +298,22 @@ def test_a_simulated_camera_keeps_a_few_frames_however_often_its_scene_loops():
     for k in range(2 * scene.n_frames + 20):
         assert scene.frame(k, 0).shape == scene.frame(k, 1).shape == (48, 64, 3)
     assert len(scene._cache) <= _SharedScene.KEEP  # was: every frame of the scene after the first loop
+
+
+def test_every_source_has_what_the_source_protocol_promises(tmp_path):
+    from stereotrack.frames import Source
+
+    folder = tmp_path / "rec"
+    with RecordingWriter(folder, ["cam0", "cam1"], (64, 48), 30.0) as w:
+        for i in range(3):
+            w.write([np.zeros((48, 64, 3), np.uint8)] * 2, [i / 30.0] * 2)
+    replay = RecordingSource(folder)
+    live = CameraPairSource(["sim:dots", "sim:dots"], settings=CaptureSettings(width=64, height=48, fps=30.0))
+    try:
+        for source in (replay, live):
+            for name in [n for n in Source.__annotations__] + ["stats", "close", "__iter__"]:
+                assert hasattr(source, name), (type(source).__name__, name)
+        assert replay.n_frames == 3 and len(list(replay)) == 3 and live.n_frames is None
+    finally:
+        replay.close()
+        live.close()
