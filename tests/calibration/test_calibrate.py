@@ -345,6 +345,8 @@ def test_calibrate_command_from_live_cameras(tmp_path, rendered):
         "--out",
         out,
         "--no-progress",
+        "--stall-timeout",
+        "10",  # at load 15 a file camera's thread can get no CPU for the default 2 s
     )
     assert r.returncode == 0, r.stderr
     est = load_rig(out)
