@@ -33,6 +33,7 @@ class Target:
     hsv_min: tuple[int, int, int]  # H 0..179, S and V 0..255
     hsv_max: tuple[int, int, int]  # hsv_min[0] > hsv_max[0]: the hue range wraps around red
     radius: float = 0.035  # ball radius in metres
+    colour_model: str | None = None  # a colour model file learnt by `colour learn` (path resolved from the config's folder)
 
     @property
     def wraps(self) -> bool:
@@ -57,7 +58,22 @@ class TrackerSettings:
     alpha: float = setting(0.2, "share of abductive (importance-sampled) particles, 0..1", low=0.0, high=1.0)
     window: int = setting(5, "colour window W in pixels (odd)", low=1, high=101)
     likelihood: str = setting(
-        "colour_window", "observation model, a file of stereotrack/particles/likelihoods/ (colour_window: the paper's eq. 14)"
+        "ball_shape",
+        "observation model, a file of stereotrack/particles/likelihoods/: ball_shape (a ball-sized disc of evidence with an empty "
+        "ring around it, at the particle's depth) or colour_window (the paper's eq. 14)",
+    )
+    motion: bool = setting(True, "learn each camera's background: the moving part of the colour mask counts as evidence too")
+    background_rate: float = setting(0.05, "how fast the background learns a change, share per frame", low=0.001, high=1.0)
+    foreground_threshold: float = setting(
+        30.0, "grey levels (summed over the three channels) a pixel must differ from the background to be moving", low=1.0, high=254.0
+    )
+    colour_model: bool = setting(
+        True,
+        "learn each target's colours against the background's (hue-saturation histograms, refined online from confirmed "
+        "tracks): a colour common in the room counts less than the ball's",
+    )
+    ball_blobs_only: bool = setting(
+        True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )
     motion_sigma: float = setting(0.02, "random-walk standard deviation per frame, metres", low=0.0, high=10.0)
     d_min: float = setting(0.2, "nearest depth along a viewing ray for abductive particles, metres", low=0.0, high=1000.0)
@@ -239,9 +255,9 @@ def target_from_dict(path, i: int, d: Any) -> Target:
     for key in ("name", "hsv_min", "hsv_max"):
         if key not in d:
             raise _err(path, f"{where}.{key}", "missing")
-    unknown = set(d) - {"name", "hsv_min", "hsv_max", "radius"}
+    unknown = set(d) - {"name", "hsv_min", "hsv_max", "radius", "colour_model"}
     if unknown:
-        raise _err(path, f"{where}.{sorted(unknown)[0]}", "unknown field (expected name, hsv_min, hsv_max, radius)")
+        raise _err(path, f"{where}.{sorted(unknown)[0]}", "unknown field (expected name, hsv_min, hsv_max, radius, colour_model)")
     lo = _hsv(path, f"{where}.hsv_min", d["hsv_min"])
     hi = _hsv(path, f"{where}.hsv_max", d["hsv_max"])
     if lo[1] > hi[1] or lo[2] > hi[2]:
@@ -252,7 +268,12 @@ def target_from_dict(path, i: int, d: Any) -> Target:
         raise _err(path, f"{where}.radius", f"expected metres, got {d.get('radius')!r}") from None
     if not 0.001 <= radius <= 1.0:
         raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius}")
-    return Target(name=str(d["name"]), hsv_min=lo, hsv_max=hi, radius=radius)
+    model = d.get("colour_model")
+    if model is not None:
+        if not isinstance(model, str) or not model:
+            raise _err(path, f"{where}.colour_model", f"expected the path of a colour model file, got {model!r}")
+        model = str(Path(path).parent / model) if not Path(model).is_absolute() else model
+    return Target(name=str(d["name"]), hsv_min=lo, hsv_max=hi, radius=radius, colour_model=model)
 
 
 def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
@@ -298,7 +319,10 @@ def load_config(path: str | Path) -> Config:
 
 
 def target_to_dict(t: Target) -> dict[str, Any]:
-    return {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
+    out = {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
+    if t.colour_model is not None:
+        out["colour_model"] = t.colour_model
+    return out
 
 
 def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, Any]:

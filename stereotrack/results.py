@@ -124,7 +124,8 @@ class FrameResult:
     objects: tuple[Object3D, ...] = ()
     tracks: tuple[TrackEstimate, ...] = ()  # every live track, whatever its state
     rays: tuple[Rays, ...] = ()
-    masks: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # (target, camera) -> uint8 0/1 mask
+    masks: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # (target, camera) -> uint8 0/1 mask of the HSV range
+    evidence: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # ... what the observation model kept: colour or motion
     timings_ms: dict[str, float] = field(default_factory=dict)  # per stage, this frame
     latency_s: float | None = None  # grab-to-estimate, live sources only
 

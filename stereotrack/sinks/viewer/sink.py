@@ -9,6 +9,7 @@ Entity layout (what the README's viewer section explains)::
     world/cameras/<cam>            Transform3D camera-from-world (OpenCV R, t) + Pinhole (K)
     world/cameras/<cam>/image      the camera image (JPEG or raw)
     world/cameras/<cam>/mask       colour masks, one class id per target (optional)
+    world/cameras/<cam>/evidence   what the observation model kept of them: colour or motion (with the masks)
     world/cameras/<cam>/objects    clusters projected into the image: boxes of the ball's image size
     world/cameras/<cam>/tracks     confirmed tracks projected into the image, labelled
     world/particles/<target>       particles, coloured by cluster; class 0 sequential, 1 abductive
@@ -243,6 +244,7 @@ class RerunSink:
                 for i, t in enumerate(self.config.targets)
             ]
             rec.log(f"{path}/mask", rr.AnnotationContext(masks), static=True)
+            rec.log(f"{path}/evidence", rr.AnnotationContext(masks), static=True)
         rec.log(
             "world/particles",
             rr.AnnotationContext(
@@ -426,16 +428,19 @@ class RerunSink:
             self._log_rays(result)
 
     def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
-        label = None
-        for i, target in enumerate(self.config.targets):
-            mask = result.masks.get((target.name, cam_name))
-            if mask is None:
-                continue
-            if label is None:
-                label = np.zeros(mask.shape[:2], dtype=np.uint8)
-            label[mask > 0] = i + 1
-        if label is not None:
-            self.rec.log(f"{path}/mask", self.rr.SegmentationImage(label, opacity=0.5))
+        """Two layers: ``mask``, the pixels in each target's HSV range (before), and ``evidence``, those the
+        observation model counts (after: colour likelier on the ball than in the room, or moving)."""
+        for entity, masks in (("mask", result.masks), ("evidence", result.evidence)):
+            label = None
+            for i, target in enumerate(self.config.targets):
+                mask = masks.get((target.name, cam_name))
+                if mask is None:
+                    continue
+                if label is None:
+                    label = np.zeros(mask.shape[:2], dtype=np.uint8)
+                label[mask > 0] = i + 1
+            if label is not None:
+                self.rec.log(f"{path}/{entity}", self.rr.SegmentationImage(label, opacity=0.5))
 
     def _follow_trails(self, result: FrameResult, now: float) -> None:
         live = {t.track_id for t in result.tracks}
