@@ -228,6 +228,8 @@ def test_the_command_scores_every_category_then_reuses_its_work(tmp_path, capsys
     rows = [line for line in out.splitlines() if line.startswith("| ") and "category" not in line]
     assert len(rows) == 2 * len(CATEGORIES)
     assert "(10 rendered" in err
+    per_seed = (tmp_path / "cache" / "tune-results.csv").read_text().splitlines()
+    assert len(per_seed) == 1 + 2 * len(CATEGORIES) and per_seed[1].startswith("hue_wall,0,particles,")
     scores = sorted((tmp_path / "cache").rglob("score_*.json"))
     assert len(scores) == 2 * len(CATEGORIES)
     stamps = [p.stat().st_mtime_ns for p in scores]

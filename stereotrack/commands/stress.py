@@ -107,9 +107,14 @@ def run(args) -> int:
     rendered = sum(r["rendered"] for r in results)
     table = markdown_table(summarise(results, args.methods))
     print(table)
-    info(f"{len(jobs)} scenes ({rendered} rendered, the rest cached) in {minutes:.1f} min with {args.jobs} job(s)")
+    per_seed = write_results_csv(results, Path(args.cache) / f"{args.seed_set}-results.csv")
+    info(
+        f"{len(jobs)} scenes ({rendered} rendered, the rest cached) in {minutes:.1f} min with {args.jobs} job(s); every seed's figures in {per_seed}"
+    )
     if args.docs:
         body = [
+            "## Stress suite: random rooms in ten categories",
+            "",
             f"Produced by `stereotrack stress --set report --seeds {args.seeds}"
             + (f" --categories {' '.join(cats)}" if args.categories else "")
             + (f" --methods {' '.join(args.methods)}" if tuple(args.methods) != METHODS else "")
@@ -336,6 +341,19 @@ def summarise(results: list[dict], methods: Iterable[str]) -> list[dict]:
                 )
             rows.append(row)
     return rows
+
+
+def write_results_csv(results: list[dict], path: Path) -> Path:
+    """One row per scene and method: the figures behind the table, to find the seeds worth a look."""
+    fields = ("mota", "id_switches", "recall", "precision", "mean_error_mm", "false_positives", "misses", "seconds")
+    lines = ["category,seed,method," + ",".join(fields) + ",error"]
+    for r in results:
+        for method, m in r["methods"].items():
+            values = ",".join("" if k not in m else f"{m[k]:.4g}" if isinstance(m[k], float) else str(m[k]) for k in fields)
+            lines.append(f"{r['category']},{r['seed']},{method},{values},{m.get('error', '').replace(',', ';')}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
 def markdown_table(rows: list[dict]) -> str:
