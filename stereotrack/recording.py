@@ -289,3 +289,10 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
     return read_columns(path, ["frame", "object_id", "x", "y", "z"], "ground-truth file")
+
+
+def __getattr__(name: str):
+    """Names that moved out of this module (``RecordingSink``, now in sinks/recorder.py) still import from here."""
+    from ._compat import moved_name
+
+    return moved_name(__name__, name)

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at
-from stereotrack.colour import integral_image
+from stereotrack.evidence.colour import integral_image
 
 RADIUS = 0.035
 

@@ -12,7 +12,7 @@ import yaml
 from stereotrack.camera import save_rig
 from stereotrack.errors import StereotrackError
 from stereotrack.recording import RecordingWriter, open_recording, read_truth
-from stereotrack.synth import RigSpec
+from stereotrack.simulation.spec import RigSpec
 
 SIZE = (160, 120)
 

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .. import kernels
 from ..camera import Camera
+from . import kernels
 
 
 def window_counts(integral: np.ndarray, uv: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray:

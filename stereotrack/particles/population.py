@@ -25,10 +25,10 @@ import numpy as np
 from ..camera import Camera
 from ..config import TrackerSettings
 from ..evidence.blobs import Blobs
-from ..kernels import intruders
-from ..objects.clustering import systematic_indices
+from .kernels import intruders
 from .likelihood import likelihood
 from .proposal import depth_range_from_size, particles_on_rays, ray_crossings
+from .resampling import systematic_indices
 
 
 @dataclass(frozen=True, eq=False)

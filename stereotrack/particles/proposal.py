@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera import Camera
-from ..kernels import crossing_points
+from .kernels import crossing_points
 
 
 def depth_range_from_size(

@@ -9,17 +9,19 @@ from __future__ import annotations
 
 import time
 
+import cv2
 import numpy as np
 
-from ..camera import Rig
-from ..config import Config
+from ..camera import Camera, Rig, intrinsics_from_fov, look_at
+from ..config import Config, Target
 from ..errors import StereotrackError
 from ..evidence.blobs import Blobs, find_blobs
 from ..evidence.colour import camera_masks
 from ..frames import FramePair
-from ..kernels import nearest_within, warm_up
+from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
 from ..objects.explain import ExplainSettings, explain
+from ..particles.kernels import nearest_within
 from ..particles.population import Population, TrackedBalls
 from ..results import FrameResult, Object3D, ParticleSet, Rays
 from ..tracks.manager import TrackManager
@@ -43,18 +45,8 @@ class Tracker:
         self.populations = {
             t.name: Population(rig.cameras, s, t.radius, np.random.default_rng(root.integers(2**63))) for t in config.targets
         }
-        self.cluster_settings = {
-            t.name: ClusterSettings(
-                radius=t.radius,
-                min_likelihood=s.cluster_min_likelihood,
-                min_mass=s.cluster_min_mass,
-                min_particles=s.cluster_min_particles,
-                max_objects=s.max_objects,
-                method=s.em,
-            )
-            for t in config.targets
-        }
-        self.explain_settings = {t.name: ExplainSettings(radius=t.radius, refine=s.refine, disc_fit=s.disc_fit) for t in config.targets}
+        self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
+        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks, rig)
@@ -153,3 +145,62 @@ class Tracker:
             for cam, b, (o, d) in zip(self.rig.cameras, per_cam, rays[name]):
                 out.append(Rays(name, cam.name, o, d, b.centres))
         return tuple(out)
+
+
+# --------------------------------------------------------------------------- warm-up
+
+_WARM = False
+
+
+def warm_up() -> None:
+    """Compile (first run on a machine) or load every kernel now, not in the first frame.
+
+    Derived from the tracker itself rather than kept as a list of calls: a
+    tracker follows a tiny drawn scene made to visit every stage's branches
+    (two colours; a pink ball partly behind an orange one in one view; two
+    pink balls sharing a blob in one view and apart in the other, so the disc
+    fit runs; tracks confirmed, so exclusion and the Kalman steps run). Every
+    kernel is then compiled with the argument types a real run passes;
+    tests/test_kernels.py checks that each one was, and that a real run
+    compiles nothing more.
+    """
+    global _WARM
+    if _WARM:
+        return
+    _WARM = True
+    w, h, radius = 320, 240, 0.035
+    cams = []
+    for i, x in enumerate((-0.15, 0.15)):
+        R, t = look_at((x, 0.0, 0.0), (0.0, 1.5, 0.0), up=(0.0, 0.0, 1.0))
+        cams.append(Camera(f"cam{i}", (w, h), intrinsics_from_fov(w, h, 60.0), np.zeros(5), R, t))
+    rig = Rig(tuple(cams))
+    pink, orange = Target("pink", (150, 80, 80), (170, 255, 255), radius), Target("orange", (5, 80, 80), (20, 255, 255), radius)
+    tracker = Tracker(rig, Config(targets=(pink, orange)))
+    colours = {
+        "pink": cv2.cvtColor(np.uint8([[[160, 200, 230]]]), cv2.COLOR_HSV2BGR)[0, 0],
+        "orange": cv2.cvtColor(np.uint8([[[12, 200, 230]]]), cv2.COLOR_HSV2BGR)[0, 0],
+    }
+    near = np.array([0.0, 1.2, 0.0])
+    behind = cams[0].centre + 1.6 * (near - cams[0].centre) + np.array([0.0, 0.0, 0.6 * radius])  # shares near's blob in cam0 only
+    for frame in range(8):
+        drift = np.array([0.01 * frame, 0.0, 0.0])
+        balls = [
+            ("pink", near + drift),
+            ("pink", behind + drift),
+            ("pink", np.array([0.3, 1.8, 0.1]) - drift),
+            ("orange", np.array([0.27, 1.6, 0.1]) - drift),
+        ]
+        images = []
+        for cam in cams:
+            img = np.full((h, w, 3), 90, np.uint8)
+            for name, centre in sorted(balls, key=lambda b: -cam.depth(b[1][None])[0]):  # far to near
+                uv, _, z = cam.view(centre[None])
+                r = cam.focal_px * radius / z[0]
+                cv2.circle(img, (int(round(uv[0, 0])), int(round(uv[0, 1]))), max(1, int(round(r))), colours[name].tolist(), -1)
+            images.append(img)
+        tracker.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
+
+
+def compiled_kernels() -> dict[str, int]:
+    """How many signatures each kernel has compiled so far (name -> count)."""
+    return {f"{k.py_func.__module__}.{k.py_func.__name__}": len(k.signatures) for k in KERNELS}

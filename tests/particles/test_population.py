@@ -2,9 +2,9 @@ import numpy as np
 import pytest
 from scene_helpers import RADIUS, default_rig, disc_masks
 
-from stereotrack.abduction import find_blobs
 from stereotrack.config import TrackerSettings
-from stereotrack.population import Population, split_counts
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.particles.population import Population, split_counts
 
 BALLS = np.array([[-0.2, 1.3, 0.0], [0.25, 1.9, 0.1]])
 
@@ -91,7 +91,7 @@ def test_crossing_particles_find_a_new_ball_in_its_first_frame():
 
 
 def test_exclusion_kills_particles_of_one_track_inside_another_ball():
-    from stereotrack.population import TrackedBalls
+    from stereotrack.particles.population import TrackedBalls
 
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)

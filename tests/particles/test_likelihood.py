@@ -1,8 +1,8 @@
 import numpy as np
 
 from stereotrack.camera import Camera, intrinsics_from_fov, look_at
-from stereotrack.colour import integral_image
-from stereotrack.likelihood import likelihood, window_counts
+from stereotrack.evidence.colour import integral_image
+from stereotrack.particles.likelihood import likelihood, window_counts
 
 
 def brute_force_counts(mask, uv, window):
@@ -50,7 +50,7 @@ def test_likelihood_is_product_with_floor():
 
 
 def test_hidden_by_balls_is_the_shadow_behind_a_ball_only():
-    from stereotrack.likelihood import hidden_by_balls
+    from stereotrack.particles.likelihood import hidden_by_balls
 
     K = intrinsics_from_fov(64, 48, 60)
     R, t = look_at((0, 0, 0), (0, 0, 1))

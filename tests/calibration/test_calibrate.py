@@ -7,22 +7,16 @@ import numpy as np
 import pytest
 import yaml
 
-from stereotrack.boards import Board, flipped, save_board
-from stereotrack.boardsynth import random_board_poses, render_views, write_image_folders
-from stereotrack.calibrate import (
-    CalibrationOptions,
-    ViewSet,
-    calibrate,
-    calibrate_intrinsics,
-    match_image_files,
-    views_from_frames,
-    views_from_images,
-)
+from stereotrack.calibration.boards import Board, flipped, save_board
+from stereotrack.calibration.solve import CalibrationOptions, calibrate, calibrate_intrinsics
+from stereotrack.calibration.views import ViewSet, match_image_files, views_from_frames, views_from_images
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, load_rig, look_at
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair, RecordingWriter
+from stereotrack.frames import FramePair
+from stereotrack.recording import RecordingWriter
+from stereotrack.simulation.boards import random_board_poses, render_views, write_image_folders
 
-REAL = Path(__file__).parent / "data" / "opencv-stereo-chessboard"
+REAL = Path(__file__).parents[1] / "data" / "opencv-stereo-chessboard"
 OPENCV_BOARD = Board("chessboard", (10, 7), 1.0)  # 9 x 6 inner corners, square 1 (OpenCV's test)
 CHESS = Board("chessboard", (9, 7), 0.03)
 CHARUCO = Board("charuco", (7, 5), 0.04, 0.03, "DICT_5X5_100")

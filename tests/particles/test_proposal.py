@@ -2,8 +2,9 @@ import cv2
 import numpy as np
 from scene_helpers import RADIUS, default_rig, disc_masks
 
-from stereotrack.abduction import depth_range_from_size, find_blobs, particles_on_rays, ray_crossings
 from stereotrack.camera import Camera, intrinsics_from_fov, look_at
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.particles.proposal import depth_range_from_size, particles_on_rays, ray_crossings
 
 
 def disc_mask(centres, radius, shape=(480, 640)):

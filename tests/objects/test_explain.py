@@ -1,8 +1,8 @@
 import numpy as np
 from scene_helpers import RADIUS, default_rig, disc_masks
 
-from stereotrack.abduction import find_blobs
-from stereotrack.explain import ExplainSettings, explain
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.objects.explain import ExplainSettings, explain
 from stereotrack.results import Object3D
 
 

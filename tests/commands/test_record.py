@@ -14,7 +14,7 @@ import pytest
 
 from stereotrack.recording import open_recording
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FPS = 30.0
 SIM = ["--width", "320", "--height", "240", "--fps", "30"]
 

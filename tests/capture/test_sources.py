@@ -4,10 +4,12 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.cameras import CameraPairSource, Pairer
+from stereotrack.capture.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.replay import RecordingSource, paced
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair, RecordingWriter
-from stereotrack.sources import CameraPairSource, Pairer, RecordingSource, paced
+from stereotrack.frames import FramePair
+from stereotrack.recording import RecordingWriter
 
 FPS = 30.0
 PERIOD = 1.0 / FPS
@@ -140,7 +142,7 @@ def test_paced_replay_skips_what_a_slow_consumer_missed():
     assert np.diff(yielded).max() <= 4
     clock = FakeClock()
     slow_all = []
-    for _pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
+    for pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
         slow_all.append(pair.index)
         clock.now += 0.1
     assert slow_all == list(range(30))
