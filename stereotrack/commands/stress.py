@@ -238,21 +238,26 @@ def render_cached(spec, folder: Path) -> bool:
 
 
 def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
-    """``stereotrack track --method METHOD`` on a scene (in this process), scored like ``stereotrack eval``."""
-    from ..cli import main as cli_main
+    """``stereotrack track --method METHOD`` on a scene (its own code, in this process), scored like ``stereotrack eval``.
+
+    A run that fails is a result too: its error goes in the table instead of stopping the other scenes.
+    """
     from ..evaluate import evaluate
     from ..recording import open_recording, read_truth
     from ..sinks.tracks_csv import read_tracks
+    from . import track
 
+    parser = argparse.ArgumentParser(prog="stereotrack track")
+    track.add_arguments(parser)
     out = folder / f"tracks_{method}.csv"
-    log = io.StringIO()
+    args = parser.parse_args([str(folder), "--method", method, "--out", str(out), "--quiet"])
     start = time.perf_counter()
-    with contextlib.redirect_stderr(log), contextlib.redirect_stdout(log):
-        code = cli_main(["track", str(folder), "--method", method, "--out", str(out), "--quiet"])
+    try:
+        with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+            track.run(args)
+    except Exception as exc:  # noqa: BLE001 (a user error or a tracker bug: both are this scene's result)
+        return {"error": f"{type(exc).__name__}: {exc}", "seconds": time.perf_counter() - start}
     seconds = time.perf_counter() - start
-    if code != 0:
-        lines = log.getvalue().strip().splitlines()
-        return {"error": f"track exited {code}: {lines[-1] if lines else ''}", "seconds": seconds}
     with warnings.catch_warnings():  # an empty tracks.csv is a result here, not news
         warnings.simplefilter("ignore", UserWarning)
         tracks, truth = read_tracks(out), read_truth(open_recording(folder).truth_path)

@@ -17,15 +17,26 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..config import Config, Target, TrackerSettings
+from ..config import TrackerSettings
 from .hands import Hand, Juggled, JugglePattern
-from .rooms import bgr_to_hsv, hsv_to_bgr, make_room, safe_colour
+from .placing import (
+    GAMMA,
+    Placer,
+    assemble,
+    ball_colour,
+    base_rig,
+    one_view_point,
+    place_balls,
+    room_for,
+    room_lighting,
+    target_material,
+    typed_target,
+)  # fmt: skip
+from .rooms import bgr_to_hsv, hsv_to_bgr, safe_colour
 from .shapes import TAG_SKIN, TAG_TARGET_COLOURED, Box, Cylinder, Decal, Ellipsoid, Material, rotation
-from .spec import BallSpec, CameraResponse, Lighting, RigSpec, SceneSpec
-from .stage import Stage
-from .trajectories import Ballistic, Flight, Line, Pendulum, Static
+from .spec import BallSpec, CameraResponse, SceneSpec
+from .trajectories import Flight
 
-GAMMA = 2.2  # every stress camera has an sRGB-like tone curve
 SEED_BASE = {"tune": 0, "report": 1_000_000}  # report seeds start a million away from tune seeds: the sets never overlap
 
 
@@ -36,214 +47,17 @@ def seeds(which: str, n: int) -> list[int]:
     return [SEED_BASE[which] + i for i in range(n)]
 
 
-def typed_target(bgr, radius: float, rng: np.random.Generator, name: str = "ball") -> Target:
-    """The HSV range a user would type after looking at the ball: its hue +-10, S and V from about 80 up.
-
-    A white or grey ball gets a low-saturation, high-value range instead. The
-    user's numbers are rounded guesses, so they wobble a little with the seed.
-    """
-    h, s, v = bgr_to_hsv(bgr)
-    if s < 60:  # white or grey
-        return Target(name, (0, 0, int(np.clip(v - rng.integers(60, 90), 90, 190))), (179, int(rng.integers(40, 70)), 255), float(radius))
-    hue = h + int(rng.integers(-2, 3))
-    width = int(rng.integers(9, 12))
-    return Target(
-        name, ((hue - width) % 180, int(rng.integers(70, 91)), int(rng.integers(70, 91))), ((hue + width) % 180, 255, 255), float(radius)
-    )
-
-
-def _ball_colour(rng, hue: float | None = None) -> tuple[float, float, float]:
-    return hsv_to_bgr(rng.uniform(0, 180) if hue is None else hue, rng.uniform(150, 240), rng.uniform(170, 250))
-
-
-def _base_rig(rng, **over) -> RigSpec:
-    k1 = float(rng.uniform(-0.12, 0.02))
-    rig = RigSpec(
-        cameras=2,
-        width=640,
-        height=480,
-        hfov=float(rng.uniform(55, 72)),
-        baseline=float(rng.uniform(0.2, 0.45)),
-        aim_distance=float(rng.uniform(1.4, 2.4)),
-        dist=(k1, float(rng.uniform(0.0, 0.04)), 0.0, 0.0, 0.0),
-    )
-    return dataclasses.replace(rig, **over)
-
-
-def _lighting(rng) -> Lighting:
-    ambient = float(rng.uniform(0.3, 0.5))
-    return Lighting(
-        direction=(float(rng.uniform(-0.6, 0.6)), float(rng.uniform(-0.8, -0.2)), float(rng.uniform(0.5, 1.0))),
-        ambient=ambient,
-        diffuse=float(rng.uniform(0.95, 1.1) - ambient),
-        specular=float(rng.uniform(0.15, 0.45)),
-        shininess=float(rng.uniform(20, 60)),
-    )
-
-
-class _Scene:
-    """Working state while a scene is drawn: rig, times, room, and checks that keep balls in view and apart."""
-
-    def __init__(self, rng, rig: RigSpec, fps: float, n_frames: int, exposure: float = 0.3):
-        self.rng = rng
-        self.rig = rig
-        self.cams = rig.build().cameras
-        self.fps = fps
-        self.n_frames = n_frames
-        self.times = np.arange(n_frames) / fps
-        self.paths: list[np.ndarray] = []  # chosen balls' positions at self.times (NaN when absent)
-        self.radii: list[float] = []
-        self.keep_out: list[tuple[np.ndarray, float]] = []  # (centre, radius) balls must not enter
-        self.floor_z = -1.2
-
-    def in_view(self, pts: np.ndarray, radius: float, margin_px: float = 6.0) -> bool:
-        ok = np.isfinite(pts[:, 0])
-        p = pts[ok]
-        for cam in self.cams:
-            uv, front = cam.project(p)
-            depth = cam.depth(p)
-            r = cam.focal_px * radius / np.maximum(depth, 1e-6) + margin_px
-            inside = front & (uv[:, 0] >= r) & (uv[:, 1] >= r) & (uv[:, 0] <= cam.width - 1 - r) & (uv[:, 1] <= cam.height - 1 - r)
-            if not inside.all():
-                return False
-        return True
-
-    def in_view_each(self, pts: np.ndarray, radius: float, margin_px: float = 2.0) -> np.ndarray:
-        """Per point: inside every camera's image (NaN points are not)."""
-        ok = np.isfinite(pts[:, 0])
-        for cam in self.cams:
-            uv, front = cam.project(np.nan_to_num(pts))
-            depth = cam.depth(np.nan_to_num(pts))
-            r = cam.focal_px * radius / np.maximum(depth, 1e-6) + margin_px
-            ok &= front & (uv[:, 0] >= r) & (uv[:, 1] >= r) & (uv[:, 0] <= cam.width - 1 - r) & (uv[:, 1] <= cam.height - 1 - r)
-        return ok
-
-    def clear(self, pts: np.ndarray, radius: float) -> bool:
-        for other, r in zip(self.paths, self.radii):
-            d = np.linalg.norm(pts - other, axis=1)
-            if np.nanmin(np.where(np.isfinite(d), d, np.inf)) < 1.15 * (radius + r):
-                return False
-        for c, r in self.keep_out:
-            d = np.linalg.norm(pts - c, axis=1)
-            if np.nanmin(np.where(np.isfinite(d), d, np.inf)) < radius + r:
-                return False
-        return True
-
-    def accept(self, traj, radius: float, check_view: bool = True) -> bool:
-        pts = traj.positions(self.times)
-        if (check_view and not self.in_view(pts, radius)) or not self.clear(pts, radius):
-            return False
-        self.paths.append(pts)
-        self.radii.append(radius)
-        return True
-
-    def point(self, depth: tuple[float, float]) -> np.ndarray:
-        """A random point inside every camera's view at a depth (along y) in the range."""
-        for _ in range(200):
-            y = self.rng.uniform(*depth)
-            p = np.array([self.rng.uniform(-1, 1) * 0.55 * y, y, self.rng.uniform(-0.4, 0.4) * y])
-            if self.in_view(p[None], 0.1, 10):
-                return p
-        return np.array([0.0, float(np.mean(depth)), 0.0])
-
-
-def _random_motion(
-    sc: _Scene, radius: float, depth=(0.9, 2.6), kinds=("pendulum", "throw", "line", "rest"), p=(0.4, 0.3, 0.2, 0.1), speed=1.0
-):
-    """A trajectory that keeps the ball inside every view and clear of the others (None after 300 tries)."""
-    rng = sc.rng
-    for _ in range(300):
-        kind = rng.choice(kinds, p=np.asarray(p) / np.sum(p))
-        rest = sc.point(depth)
-        if kind == "pendulum":
-            length = rng.uniform(0.3, 1.2)
-            traj = Pendulum(
-                (rest[0], rest[1], rest[2] + length),
-                length,
-                float(rng.uniform(10, 35) * min(speed, 1.6)),
-                float(rng.uniform(-90, 90)),
-                float(rng.uniform(0, 360)),
-            )
-        elif kind == "throw":
-            end = sc.point(depth)
-            end[2] = rest[2] + rng.uniform(-0.1, 0.1)
-            flight = rng.uniform(0.45, 0.9) / speed
-            traj = Ballistic(
-                tuple(rest), tuple(end), flight=float(flight), dwell=float(rng.uniform(0.05, 0.3)), phase=float(rng.uniform(0, 2))
-            )
-        elif kind == "line":
-            end = sc.point(depth)
-            dist = np.linalg.norm(end - rest)
-            traj = Line(tuple(rest), tuple(end), period=float(2 * dist / (rng.uniform(0.3, 1.5) * speed)), phase=float(rng.uniform(0, 1)))
-        else:
-            traj = Static(tuple(rest))
-        if sc.accept(traj, radius):
-            return traj
-    return None
-
-
-def _balls(sc: _Scene, colour, radius, n: int, **motion) -> tuple[BallSpec, ...]:
-    out = []
-    for _ in range(n):
-        traj = _random_motion(sc, radius, **motion)
-        if traj is not None:
-            out.append(BallSpec(traj, colour=tuple(int(round(c)) for c in colour), radius=radius))
-    return tuple(out)
-
-
-def _room(sc: _Scene, avoid_hue, white=False, hall=False, back=(3.0, 6.0)):
-    rng = sc.rng
-    return make_room(
-        rng,
-        avoid_hue,
-        width=float(rng.uniform(4, 8) if not hall else rng.uniform(15, 30)),
-        depth=float(rng.uniform(*back)),
-        camera_height=float(rng.uniform(0.9, 1.5)),
-        ceiling=float(rng.uniform(2.4, 3.0) if not hall else rng.uniform(6, 10)),
-        white=white,
-        hall=hall,
-    )
-
-
-def _spec(category, seed, sc: _Scene, balls, room, target, extra_props=(), extra_decals=None, **kw) -> SceneSpec:
-    rng = sc.rng
-    walls = room.walls
-    if extra_decals:
-        walls = tuple(dataclasses.replace(w, decals=w.decals + tuple(extra_decals.get(i, ()))) for i, w in enumerate(walls))
-    tracker = kw.pop("tracker", TrackerSettings())
-    responses = kw.pop("responses", None)
-    if responses is None:
-        responses = tuple(CameraResponse(vignette=float(rng.uniform(0.0, 0.15)), gamma=GAMMA) for _ in range(sc.rig.cameras))
-    return SceneSpec(
-        name=f"stress-{category}-{seed}",
-        balls=balls,
-        rig=sc.rig,
-        fps=sc.fps,
-        n_frames=sc.n_frames,
-        seed=int(seed),
-        lighting=kw.pop("lighting", _lighting(rng)),
-        noise=float(kw.pop("noise", rng.uniform(1.5, 4.0))),
-        blur=int(kw.pop("blur", 3)),
-        exposure=float(kw.pop("exposure", rng.uniform(0.2, 0.4))),
-        jpeg_quality=int(kw.pop("jpeg_quality", 0)),
-        stage=Stage(walls, room.props + tuple(extra_props)),
-        responses=responses,
-        user_config=Config(targets=(target,), tracker=tracker),
-        **kw,
-    )
-
-
 # --------------------------------------------------------------------------- the categories
 
 
 def hue_wall(seed: int, rng) -> SceneSpec:
     """Walls, posters and curtains of the ball's hue behind the balls."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)))
-    room = _room(sc, hue)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)))
+    room = room_for(sc, hue)
     decals = []
     length = room.right_x - room.left_x
     view_half = (room.back_y + 0.0) * np.tan(np.radians(sc.rig.hfov / 2))  # what the cameras see of the back wall
@@ -268,49 +82,21 @@ def hue_wall(seed: int, rng) -> SceneSpec:
                     Decal("rect", (u + k * 0.25, rng.uniform(1.0, 1.6)), (0.1, rng.uniform(0.6, 1.6)), c, tag=TAG_TARGET_COLOURED)
                 )
     target = typed_target(colour, radius, rng)
-    return _spec("hue_wall", seed, sc, balls, room, target, extra_decals={0: decals})
-
-
-def _target_material(rng, hue, tag=TAG_TARGET_COLOURED) -> Material:
-    return Material(
-        hsv_to_bgr(hue + rng.uniform(-7, 7), rng.uniform(110, 235), rng.uniform(140, 250)),
-        float(rng.uniform(0.0, 0.4)),
-        float(rng.uniform(8, 40)),
-        tag,
-    )
-
-
-def _one_view_point(sc: _Scene, radius: float, seen_by: int) -> np.ndarray | None:
-    """A point whose ball-sized sphere is inside camera ``seen_by``'s image and outside every other camera's."""
-    rng = sc.rng
-    for _ in range(2000):
-        p = np.array([rng.uniform(-2.5, 2.5), rng.uniform(0.6, 3.0), rng.uniform(-0.8, 0.8)])
-        ok = True
-        for i, cam in enumerate(sc.cams):
-            uv, front = cam.project(p[None])
-            r = cam.focal_px * radius / max(float(cam.depth(p[None])[0]), 1e-6)
-            inside = bool(front[0]) and r + 3 <= uv[0, 0] <= cam.width - 4 - r and r + 3 <= uv[0, 1] <= cam.height - 4 - r
-            outside = (
-                (not front[0]) or uv[0, 0] < -r - 3 or uv[0, 0] > cam.width + r + 3 or uv[0, 1] < -r - 3 or uv[0, 1] > cam.height + r + 3
-            )
-            ok &= inside if i == seen_by else outside
-        if ok:
-            return p
-    return None
+    return assemble("hue_wall", seed, sc, balls, room, target, extra_decals={0: decals})
 
 
 def static_props(seed: int, rng) -> SceneSpec:
     """Static things of the ball's colour: boxes, cans, cushions, big balls, shapes on the wall, and ball-sized ones only one camera sees."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    room = _room(sc, hue)
+    room = room_for(sc, hue)
     props, decals = [], []
     stand = Material(safe_colour(rng, hue, (0, 40), (40, 200)), 0.2, 20.0)
     for _ in range(int(rng.integers(3, 9))):
         kind = rng.choice(["box", "can", "cushion", "big ball", "wall shape"], p=[0.3, 0.2, 0.2, 0.1, 0.2])
-        mat = _target_material(rng, hue)
+        mat = target_material(rng, hue)
         if kind == "wall shape":
             n = int(rng.integers(3, 11))
             ang = np.sort(rng.uniform(0, 2 * np.pi, n)) if n > 5 else np.linspace(0, 2 * np.pi, n, endpoint=False)
@@ -351,20 +137,20 @@ def static_props(seed: int, rng) -> SceneSpec:
         sc.keep_out.append((np.asarray(shape.centre), shape.bound + 0.02))
     for _ in range(int(rng.integers(1, 3))):  # ball-sized, the ball's colour, in one camera only
         r = radius * rng.uniform(0.85, 1.2)
-        p = _one_view_point(sc, r, int(rng.integers(0, len(sc.cams))))
+        p = one_view_point(sc, r, int(rng.integers(0, len(sc.cams))))
         if p is not None:
-            props.append(Ellipsoid(tuple(p), (r, r, r), _target_material(rng, hue)))
+            props.append(Ellipsoid(tuple(p), (r, r, r), target_material(rng, hue)))
             sc.keep_out.append((p, r + 0.02))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)))
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)))
     target = typed_target(colour, radius, rng)
-    return _spec("static_props", seed, sc, balls, room, target, extra_props=props, extra_decals={0: decals})
+    return assemble("static_props", seed, sc, balls, room, target, extra_props=props, extra_decals={0: decals})
 
 
 def _skin(rng) -> tuple[float, float, float]:
     return hsv_to_bgr(rng.uniform(5, 17), rng.uniform(60, 150), rng.uniform(110, 235))
 
 
-def _juggler(rng, sc: _Scene, hand_depth: float, hand_z: float, radius: float, skin, avoid_hue) -> tuple[JugglePattern, tuple, list]:
+def _juggler(rng, sc: Placer, hand_depth: float, hand_z: float, radius: float, skin, avoid_hue) -> tuple[JugglePattern, tuple, list]:
     """A pattern that fits the views, the two hands, and the juggler's static body (torso, head, legs)."""
     balls = int(rng.choice([1, 2, 3], p=[0.3, 0.2, 0.5]))
     beat = {1: rng.uniform(0.45, 0.8), 2: rng.uniform(0.3, 0.42), 3: rng.uniform(0.22, 0.32)}[balls]
@@ -412,13 +198,13 @@ def hands(seed: int, rng) -> SceneSpec:
     skin = _skin(rng)
     skin_hue = bgr_to_hsv(skin)[0]
     offset = rng.uniform(3, 20) * rng.choice([-1, 1])
-    colour = _ball_colour(rng, (skin_hue + offset) % 180)
+    colour = ball_colour(rng, (skin_hue + offset) % 180)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.04))
     for _ in range(100):
         depth = float(rng.uniform(0.9, 1.6))
-        sc = _Scene(rng, _base_rig(rng, aim_distance=depth + rng.uniform(-0.2, 0.3)), 30.0, 90)
-        room = _room(sc, hue, back=(depth + 1.5, depth + 4.0))
+        sc = Placer(rng, base_rig(rng, aim_distance=depth + rng.uniform(-0.2, 0.3)), 30.0, 90)
+        room = room_for(sc, hue, back=(depth + 1.5, depth + 4.0))
         sc.floor_z = room.floor_z
         pattern, hand_movers, body = _juggler(rng, sc, depth, float(rng.uniform(-0.4, -0.15)), radius, skin, hue)
         trajs = [Juggled(pattern, i) for i in range(pattern.balls)]
@@ -426,31 +212,31 @@ def hands(seed: int, rng) -> SceneSpec:
             break
     balls = tuple(BallSpec(t, colour=tuple(int(round(c)) for c in colour), radius=radius) for t in trajs)
     target = typed_target(colour, radius, rng)
-    return _spec("hands", seed, sc, balls, room, target, extra_props=body, movers=hand_movers)
+    return assemble("hands", seed, sc, balls, room, target, extra_props=body, movers=hand_movers)
 
 
 def white_ball(seed: int, rng) -> SceneSpec:
     """White or grey balls in a room with white walls; half the seeds in greyscale."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
     grey = rng.uniform() < 0.3
     colour = hsv_to_bgr(rng.uniform(0, 180), rng.uniform(0, 20), rng.uniform(140, 195) if grey else rng.uniform(215, 250))
     radius = float(rng.uniform(0.02, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 4)))
-    room = _room(sc, None, white=True)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 4)))
+    room = room_for(sc, None, white=True)
     mono = rng.uniform() < 0.5
     responses = tuple(CameraResponse(vignette=float(rng.uniform(0.0, 0.15)), gamma=GAMMA, greyscale=mono) for _ in range(sc.rig.cameras))
     target = typed_target(colour, radius, rng)
-    return _spec("white_ball", seed, sc, balls, room, target, responses=responses)
+    return assemble("white_ball", seed, sc, balls, room, target, responses=responses)
 
 
 def lighting(seed: int, rng) -> SceneSpec:
     """The room's light drifts and flickers; each camera has its own white balance, exposure, auto-exposure hunting and vignetting."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)))
-    room = _room(sc, hue)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)))
+    room = room_for(sc, hue)
     n = int(rng.integers(1, 4))
     waves = tuple((float(rng.uniform(0.05, 0.35 / n)), float(rng.uniform(0.7, 6.0)), float(rng.uniform(0, 2 * np.pi))) for _ in range(n))
     responses = []
@@ -460,18 +246,18 @@ def lighting(seed: int, rng) -> SceneSpec:
         hunt = ((float(rng.uniform(0.0, 0.08)), float(rng.uniform(1.0, 4.0)), float(rng.uniform(0, 2 * np.pi))),)
         responses.append(CameraResponse(gains, hunt, float(rng.uniform(0.0, 0.3)), GAMMA))
     target = typed_target(colour, radius, rng)
-    return _spec(
-        "lighting", seed, sc, balls, room, target, responses=tuple(responses), lighting=dataclasses.replace(_lighting(rng), waves=waves)
+    return assemble(
+        "lighting", seed, sc, balls, room, target, responses=tuple(responses), lighting=dataclasses.replace(room_lighting(rng), waves=waves)
     )
 
 
 def motion_blur(seed: int, rng) -> SceneSpec:
     """Fast throws and swings under a long exposure: balls smeared into streaks."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    balls = _balls(
+    balls = place_balls(
         sc,
         colour,
         radius,
@@ -480,45 +266,45 @@ def motion_blur(seed: int, rng) -> SceneSpec:
         p=(0.3, 0.5, 0.2),
         speed=float(rng.uniform(1.5, 2.5)),
     )
-    room = _room(sc, hue)
+    room = room_for(sc, hue)
     target = typed_target(colour, radius, rng)
-    return _spec("motion_blur", seed, sc, balls, room, target, blur=9, exposure=float(rng.uniform(0.6, 1.0)))
+    return assemble("motion_blur", seed, sc, balls, room, target, blur=9, exposure=float(rng.uniform(0.6, 1.0)))
 
 
 def mjpg(seed: int, rng) -> SceneSpec:
     """A webcam's MJPG stream: strong JPEG compression (blocks, colour bleeding at half resolution) on a noisy sensor."""
-    sc = _Scene(rng, _base_rig(rng), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.025, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)))
-    room = _room(sc, hue)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)))
+    room = room_for(sc, hue)
     target = typed_target(colour, radius, rng)
-    return _spec("mjpg", seed, sc, balls, room, target, jpeg_quality=int(rng.integers(25, 66)), noise=float(rng.uniform(3, 6)))
+    return assemble("mjpg", seed, sc, balls, room, target, jpeg_quality=int(rng.integers(25, 66)), noise=float(rng.uniform(3, 6)))
 
 
 def hd60(seed: int, rng) -> SceneSpec:
     """1280x720 at 60 frames/s with a wide lens, as HD webcams record."""
-    sc = _Scene(rng, _base_rig(rng, width=1280, height=720, hfov=float(rng.uniform(65, 85))), 60.0, 120)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng, width=1280, height=720, hfov=float(rng.uniform(65, 85))), 60.0, 120)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)), speed=float(rng.uniform(1.0, 1.5)))
-    room = _room(sc, hue)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)), speed=float(rng.uniform(1.0, 1.5)))
+    room = room_for(sc, hue)
     target = typed_target(colour, radius, rng)
-    return _spec("hd60", seed, sc, balls, room, target, exposure=float(rng.uniform(0.3, 0.6)))
+    return assemble("hd60", seed, sc, balls, room, target, exposure=float(rng.uniform(0.3, 0.6)))
 
 
 def three_cams(seed: int, rng) -> SceneSpec:
     """Three cameras in a row: a ball must be found in all three, with three views' worth of clutter."""
-    sc = _Scene(rng, _base_rig(rng, cameras=3, baseline=float(rng.uniform(0.15, 0.35))), 30.0, 90)
-    colour = _ball_colour(rng)
+    sc = Placer(rng, base_rig(rng, cameras=3, baseline=float(rng.uniform(0.15, 0.35))), 30.0, 90)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
     radius = float(rng.uniform(0.03, 0.045))
-    balls = _balls(sc, colour, radius, int(rng.integers(1, 5)))
-    room = _room(sc, hue)
+    balls = place_balls(sc, colour, radius, int(rng.integers(1, 5)))
+    room = room_for(sc, hue)
     target = typed_target(colour, radius, rng)
-    return _spec("three_cams", seed, sc, balls, room, target)
+    return assemble("three_cams", seed, sc, balls, room, target)
 
 
 BALL_KINDS = {"baseball": 0.037, "tennis": 0.033, "handball": 0.09, "football": 0.11}
@@ -527,7 +313,7 @@ BALL_KINDS = {"baseball": 0.037, "tennis": 0.033, "handball": 0.09, "football": 
 def fast_ball(seed: int, rng) -> SceneSpec:
     """Thrown or pitched balls at 10-30 m/s, 5-15 m away, crossing the view in a fraction of a second, blurred into streaks."""
     w, h = [(1280, 720), (640, 480)][int(rng.integers(0, 2))]
-    rig = _base_rig(
+    rig = base_rig(
         rng,
         width=w,
         height=h,
@@ -536,12 +322,12 @@ def fast_ball(seed: int, rng) -> SceneSpec:
         aim_distance=float(rng.uniform(8, 12)),
     )
     fps, n_frames = 60.0, 120
-    sc = _Scene(rng, rig, fps, n_frames)
+    sc = Placer(rng, rig, fps, n_frames)
     kind = str(rng.choice(list(BALL_KINDS)))
     radius = BALL_KINDS[kind]
-    colour = _ball_colour(rng)
+    colour = ball_colour(rng)
     hue = bgr_to_hsv(colour)[0]
-    room = _room(sc, hue, hall=True, back=(20.0, 35.0))
+    room = room_for(sc, hue, hall=True, back=(20.0, 35.0))
     exposure = float(rng.uniform(0.4, 1.0))
     balls = []
     t0 = float(rng.uniform(0.0, 0.3))
@@ -577,7 +363,7 @@ def fast_ball(seed: int, rng) -> SceneSpec:
     blur = int(np.clip(np.ceil(focal * top_speed * exposure / fps / nearest / 1.5) + 1, 3, 48))
     target = typed_target(colour, radius, rng)
     tracker = TrackerSettings(d_min=2.0, d_max=25.0)
-    return _spec("fast_ball", seed, sc, tuple(balls), room, target, tracker=tracker, blur=blur, exposure=exposure)
+    return assemble("fast_ball", seed, sc, tuple(balls), room, target, tracker=tracker, blur=blur, exposure=exposure)
 
 
 CATEGORIES: dict[str, Callable] = {
