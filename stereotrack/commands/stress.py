@@ -25,6 +25,7 @@ import argparse
 import ast
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import io
 import json
@@ -40,11 +41,12 @@ from typing import Any
 
 HELP = "score both trackers on randomised stress scenes (tune or report seeds)"
 METHODS = ("particles", "baseline")
+CODEC = "mjpg"  # like a webcam's stream; lossless FFV1 would take about 10 times the disk
 TARGET_MEDIAN, TARGET_WORST = 0.95, 0.85  # issue 14's goal for every category
 PACKAGE = Path(__file__).resolve().parent.parent
-# The code a rendering depends on (the scene generators are not here: they only make specs, which are keyed themselves).
-RENDER_CODE = ("camera.py", "simulation/spec.py", "simulation/render.py", "simulation/stage.py", "simulation/shapes.py",
-               "simulation/hands.py", "simulation/trajectories.py", "simulation/write.py")  # fmt: skip
+# The scene side's own code: a scene is rendered again when its syntax tree changes (not for a comment or reformatting).
+RENDER_CODE = ("simulation/spec.py", "simulation/render.py", "simulation/stage.py", "simulation/shapes.py", "simulation/hands.py",
+               "simulation/trajectories.py")  # fmt: skip
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -197,9 +199,34 @@ def _source_hash(paths: Iterable[Path]) -> str:
 
 
 def scene_key(spec) -> str:
-    """Changes when the scene or the code that renders it changes."""
-    text = json.dumps(_canonical(spec), sort_keys=True) + _source_hash(PACKAGE / p for p in RENDER_CODE)
+    """Changes when the scene changes, or the code that renders it, or what the rest of the way to a recording makes of it."""
+    text = json.dumps(_canonical(spec), sort_keys=True) + _source_hash(PACKAGE / p for p in RENDER_CODE) + renderer_fingerprint()
     return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+@functools.cache
+def renderer_fingerprint() -> str:
+    """The pixels, truth and calibration of two tiny probe scenes written as a stress scene is and read back.
+
+    The camera model, the recording writer and the codec live outside the simulation package: when they change
+    what a recording holds, every scene is rendered again; when a change there moves no pixel, none is.
+    """
+    import tempfile
+
+    from ..recording import open_recording
+    from ..simulation.write import render_scene
+
+    h = hashlib.sha256()
+    with tempfile.TemporaryDirectory() as tmp:
+        for category in ("hands", "lighting"):  # a stage, movers, tone curve, white balance, vignetting, blur
+            spec = dataclasses.replace(Job(category, 0, tmp, frames=2, scale=0.15).spec(), jpeg_quality=60)
+            folder = Path(tmp) / category
+            render_scene(spec, folder, progress=False, codec=CODEC)
+            for pair in open_recording(folder).frames():
+                for image in pair.images:
+                    h.update(image.tobytes())
+            h.update((folder / "truth.csv").read_bytes() + (folder / "calib.yaml").read_bytes())
+    return h.hexdigest()[:24]
 
 
 def code_key() -> str:
@@ -229,7 +256,7 @@ def render_cached(spec, folder: Path) -> bool:
     for stale in folder.parent.glob(f".{folder.name}.partial-*"):  # left by an interrupted run
         shutil.rmtree(stale, ignore_errors=True)
     tmp = folder.with_name(f".{folder.name}.partial-{os.getpid()}")
-    render_scene(spec, tmp, progress=False, codec="mjpg")
+    render_scene(spec, tmp, progress=False, codec=CODEC)
     (tmp / "scene.key").write_text(key + "\n")
     if folder.exists():
         shutil.rmtree(folder)
