@@ -41,7 +41,7 @@ from typing import Any
 
 HELP = "score both trackers on randomised stress scenes (tune or report seeds)"
 METHODS = ("particles", "baseline")
-CODEC = "mjpg"  # like a webcam's stream; lossless FFV1 would take about 10 times the disk
+CODEC = "mjpg"  # like a webcam's stream; lossless FFV1 takes 6.5 times the disk (26.7 vs 4.1 MB, hue_wall seed 0, 30 frames)
 TARGET_MEDIAN, TARGET_WORST = 0.95, 0.85  # issue 14's goal for every category
 PACKAGE = Path(__file__).resolve().parent.parent
 # The scene side's own code: a scene is rendered again when its syntax tree changes (not for a comment or reformatting).
@@ -238,7 +238,7 @@ def code_key() -> str:
 def render_cached(spec, folder: Path) -> bool:
     """Render ``spec`` into ``folder`` unless a complete rendering with the same key is there; True if rendered.
 
-    MJPG, like a webcam's stream (a stress scene in lossless FFV1 takes 10 times the disk). A half-written
+    MJPG (CODEC), like a webcam's stream. A half-written
     rendering never takes the folder's place: it is written beside it and renamed when complete.
     """
     from ..errors import StereotrackError
