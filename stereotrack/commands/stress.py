@@ -3,14 +3,15 @@
 Each category (see --list) draws a new scene from every seed: the rig, the
 room, the balls' colour, size, number and paths, and the category's own
 trouble. Seeds come in two sets that never overlap: 'tune' (look at these,
-tune on these) and 'report' (what docs/evaluation.md shows; never tune on
-it). Every scene is rendered once into CACHE/CATEGORY/SEED and reused while
+tune on these; seeds 0, 1, 2 ...) and 'report' (what docs/evaluation.md
+shows, never tuned on; seeds 1000000, 1000001 ...). Every scene is rendered once into CACHE/CATEGORY/SEED and reused while
 its spec and the renderer are unchanged; a method's score is reused while
 the package's code is unchanged too, so reruns are cheap and an interrupted
 run resumes. Both methods run as `stereotrack track --method
 particles|baseline` does, with the target a user would type for the ball
-(its hue +-10, S and V from about 80; a white ball: low S, high V), and are
-scored like `stereotrack eval`.
+(its hue +-10, S and V from about 80; a white ball: low S, high V) and every
+other setting at this checkout's default, and are scored like `stereotrack
+eval`. Ctrl-C stops at once: workers are killed, nothing half-done is kept.
 
 examples:
   stereotrack stress --list
@@ -95,6 +96,7 @@ def run(args) -> int:
     jobs = [
         Job(c, s, str(args.cache), tuple(args.methods), args.frames, args.scale) for c in cats for s in seeds(args.seed_set, args.seeds)
     ]
+    remove_left_behind(Path(args.cache))
     start = time.perf_counter()
 
     def report(r: dict) -> None:
@@ -124,6 +126,9 @@ def run(args) -> int:
             f"with {args.jobs} job(s) on the shared 2-core machine.",
             f"Report seeds {seeds('report', 1)[0]} to {seeds('report', args.seeds)[-1]} of each category; tuning uses other seeds "
             "(`--set tune`). The target is the range a user would type for the ball; MOTA as `stereotrack eval` (0.1 m gate).",
+            "`particles` is `stereotrack track --method particles` as this checkout configures it: a scene's recording holds "
+            "only its typed target (and `fast_ball`'s depth range), every other setting is its default in `stereotrack/config.py`, "
+            "so a changed default is what the next run measures; `baseline` is `--method baseline`.",
             f"Issue 14's goal: median MOTA >= {TARGET_MEDIAN} and worst >= {TARGET_WORST} in every category.",
             "",
             table,
@@ -199,8 +204,16 @@ def _source_hash(paths: Iterable[Path]) -> str:
 
 
 def scene_key(spec) -> str:
-    """Changes when the scene changes, or the code that renders it, or what the rest of the way to a recording makes of it."""
-    text = json.dumps(_canonical(spec), sort_keys=True) + _source_hash(PACKAGE / p for p in RENDER_CODE) + renderer_fingerprint()
+    """Changes when the scene changes, or the code that renders it, or what the rest of the way to a recording makes of it.
+
+    The scene's config counts as its recording holds it (only what differs from the defaults): a changed tracker
+    default renders nothing again, and the scores, keyed on the package's code (code_key), are measured afresh.
+    """
+    from ..config import config_to_dict
+
+    written = config_to_dict(spec.config())
+    scene = _canonical(dataclasses.replace(spec, user_config=None))
+    text = json.dumps([scene, written], sort_keys=True) + _source_hash(PACKAGE / p for p in RENDER_CODE) + renderer_fingerprint()
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -239,7 +252,8 @@ def render_cached(spec, folder: Path) -> bool:
     """Render ``spec`` into ``folder`` unless a complete rendering with the same key is there; True if rendered.
 
     MJPG (CODEC), like a webcam's stream. A half-written
-    rendering never takes the folder's place: it is written beside it and renamed when complete.
+    rendering never takes the folder's place: it is written beside it and renamed when complete (a run
+    killed mid-way leaves it hidden beside the folder, and the next run removes it).
     """
     from ..errors import StereotrackError
     from ..recording import open_recording
@@ -253,14 +267,35 @@ def render_cached(spec, folder: Path) -> bool:
                 return False
         except StereotrackError:
             pass
-    for stale in folder.parent.glob(f".{folder.name}.partial-*"):  # left by an interrupted run
-        shutil.rmtree(stale, ignore_errors=True)
     tmp = folder.with_name(f".{folder.name}.partial-{os.getpid()}")
-    render_scene(spec, tmp, progress=False, codec=CODEC)
-    (tmp / "scene.key").write_text(key + "\n")
-    if folder.exists():
-        shutil.rmtree(folder)
-    os.replace(tmp, folder)
+    try:
+        render_scene(spec, tmp, progress=False, codec=CODEC)
+        (tmp / "scene.key").write_text(key + "\n")
+        old = folder.with_name(f".{folder.name}.partial-old-{os.getpid()}")
+        if folder.exists():  # renamed aside, not deleted in place: a run killed here leaves no half-deleted scene
+            os.replace(folder, old)
+        os.replace(tmp, folder)
+        shutil.rmtree(old, ignore_errors=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)  # only there when rendering failed or was interrupted
+    return True
+
+
+def remove_left_behind(cache: Path) -> None:
+    """Remove the half-written scenes a killed run left hidden in the cache (those of a live run are kept)."""
+    for stale in cache.glob("*/.*.partial-*"):
+        pid = stale.name.rpartition("-")[2]  # the process that wrote it
+        if pid.isdigit() and not _running(int(pid)):
+            shutil.rmtree(stale, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's
+        return True
     return True
 
 
@@ -299,6 +334,8 @@ def run_job(job: Job) -> dict:
     start = time.perf_counter()
     rendered = render_cached(spec, folder)
     out = {"category": job.category, "seed": job.seed, "rendered": rendered, "render_seconds": time.perf_counter() - start, "methods": {}}
+    from ..files import write_atomic
+
     key = scene_key(spec) + "-" + code_key()
     for method in job.methods:
         stamp = folder / f"score_{method}.json"
@@ -308,23 +345,37 @@ def run_job(job: Job) -> dict:
                 out["methods"][method] = saved["score"]
                 continue
         score = track_and_score(folder, method, spec.n_frames)
-        stamp.write_text(json.dumps({"key": key, "score": score}, indent=1))
+        write_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
         out["methods"][method] = score
     return out
 
 
-def _worker_setup() -> None:
-    """One thread per worker (the jobs are the parallelism, and the machine is shared); Ctrl-C is the parent's to handle."""
-    import signal
+def _worker(conn) -> None:
+    """A worker process: run the jobs its parent sends, one at a time, until it sends None (or kills it).
 
+    Ctrl-C reaches the whole process group; it is the parent's to handle, so workers ignore it and keep out of
+    the tracking loop's stop handling (which would otherwise end a scene early and score it). One thread each:
+    the jobs are the parallelism, and the machine is shared.
+    """
     import cv2
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from ..capture.signals import leave_to_parent
+
+    leave_to_parent()
     cv2.setNumThreads(1)
+    while (job := conn.recv()) is not None:
+        try:
+            conn.send(("ok", run_job(job)))
+        except Exception as exc:  # noqa: BLE001 (the parent says which scene failed, and stops)
+            conn.send(("error", f"{type(exc).__name__}: {exc}"))
 
 
 def run_jobs(jobs: list[Job], workers: int, report: Callable[[dict], None] | None = None) -> list[dict]:
-    """Every job, ``workers`` at a time in worker processes; results in the jobs' order. Ctrl-C stops the workers at once."""
+    """Every job, ``workers`` at a time in worker processes; results in the jobs' order.
+
+    On Ctrl-C (or any error) the workers are killed at once, whatever they are doing: a scene they were
+    rendering never took its folder's place (render_cached), a score they were writing is not saved.
+    """
     results: list[dict] = []
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
@@ -333,14 +384,51 @@ def run_jobs(jobs: list[Job], workers: int, report: Callable[[dict], None] | Non
                 report(results[-1])
         return results
     import multiprocessing
+    import signal
+    from multiprocessing.connection import wait
 
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     context = multiprocessing.get_context("spawn")  # fresh interpreters: no OpenCV or numba threads inherited mid-flight
-    with context.Pool(workers, initializer=_worker_setup) as pool:  # leaving the block (an error, Ctrl-C) terminates them
-        for result in pool.imap_unordered(run_job, jobs):
-            results.append(result)
-            if report:
-                report(result)
+    todo = list(reversed(jobs))
+    busy: dict[Any, Job] = {}  # a worker's end of the pipe -> the job it runs
+    procs = []
+    try:
+        for _ in range(min(workers, len(jobs))):
+            ours, theirs = context.Pipe()
+            # Born with Ctrl-C ignored (an ignored signal stays ignored through exec), so one that comes while a worker
+            # starts cannot print a traceback there; this process handles Ctrl-C again as soon as the worker is started.
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                proc = context.Process(target=_worker, args=(theirs,), daemon=True)
+                proc.start()
+            finally:
+                signal.signal(signal.SIGINT, previous)
+            theirs.close()
+            procs.append(proc)
+            busy[ours] = todo.pop()
+            ours.send(busy[ours])
+        while busy:
+            for conn in wait(list(busy)):
+                job = busy.pop(conn)
+                try:
+                    status, value = conn.recv()
+                except EOFError:
+                    raise RuntimeError(f"the worker running {job.category} seed {job.seed} died") from None
+                if status != "ok":
+                    raise RuntimeError(f"{job.category} seed {job.seed}: {value}")
+                results.append(value)
+                if report:
+                    report(value)
+                if todo:
+                    busy[conn] = todo.pop()
+                    conn.send(busy[conn])
+                else:
+                    conn.send(None)
+    finally:
+        for proc in procs:
+            proc.kill()  # SIGKILL: nothing a worker does can hold the stop up
+        for proc in procs:
+            proc.join(timeout=10)
     order = {(j.category, j.seed): i for i, j in enumerate(jobs)}
     return sorted(results, key=lambda r: order[(r["category"], r["seed"])])
 

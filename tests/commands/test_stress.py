@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -75,36 +76,61 @@ def test_list_names_every_category(capsys):
 
 
 def _ctrl_c_enabled() -> None:
-    """In the child: Ctrl-C (SIGINT) at its default, even if this test run inherited it ignored."""
+    """In the child: its own process group (a terminal's Ctrl-C reaches the whole group), SIGINT at its default."""
+    os.setpgid(0, 0)
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _children(pid: int) -> list[int]:
-    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    return [int(x) for x in out.split()]
+def _group(pgid: int) -> list[int]:
+    """The live (not zombie) processes of a process group."""
+    out = subprocess.run(["ps", "-e", "-o", "pid=,pgid=,stat="], capture_output=True, text=True).stdout
+    return [int(pid) for pid, group, stat in (line.split() for line in out.splitlines()) if int(group) == pgid and "Z" not in stat]
 
 
-def test_ctrl_c_stops_the_workers_at_once_and_leaves_the_docs_as_they_were(tmp_path):
+@pytest.mark.parametrize("entry", ["script", "module"])
+def test_ctrl_c_ends_in_seconds_kills_the_workers_and_keeps_nothing_half_done(tmp_path, entry):
+    """A real Ctrl-C (SIGINT to the process group) while both workers render: one line, exit 130, no worker left,
+    no scene or score taken from a half-done job, the docs as they were; the next run clears what was left."""
     doc = tmp_path / "evaluation.md"
     doc.write_text("# Evaluation\n")
     cache = tmp_path / "cache"
-    cmd = [sys.executable, "-m", "stereotrack", "stress", "--set", "report", "--seeds", "3", "--jobs", "2", "--cache", str(cache)]
+    script = Path(sys.executable).parent / "stereotrack"  # the console script a user runs (the package installed -e)
+    command = [str(script)] if entry == "script" else [sys.executable, "-m", "stereotrack"]
+    args = ["stress", "--set", "report", "--seeds", "2", "--categories", "hue_wall", "--jobs", "2", "--cache", str(cache)]
     proc = subprocess.Popen(
-        [*cmd, "--docs", str(doc)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled
+        [*command, *args, "--docs", str(doc)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled
     )
     try:
         deadline = time.monotonic() + 120
-        while not list(cache.glob("*/.*.partial-*")) and time.monotonic() < deadline:  # both workers are rendering
-            time.sleep(0.2)
-        workers = _children(proc.pid)
-        assert len(workers) >= 2 and proc.poll() is None
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=20)
+        while len(list(cache.glob("*/.*.partial-*"))) < 2 and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)  # both workers are rendering
+        assert proc.poll() is None and len(_group(proc.pid)) >= 3, "the parent and two workers should be running"
+        os.killpg(proc.pid, signal.SIGINT)
+        sent = time.monotonic()
+        out, err = proc.communicate(timeout=20)
+        took = time.monotonic() - sent
     finally:
         if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130 and err.strip().splitlines()[-1] == "interrupted"
-    time.sleep(0.5)
-    assert not [w for w in workers if os.path.exists(f"/proc/{w}") and open(f"/proc/{w}/stat").read().split()[2] != "Z"]
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and err.strip().splitlines() == ["interrupted by SIGINT"], err
+    assert took < 10 and "|" not in out
+    assert _group(proc.pid) == []  # every worker gone
     assert doc.read_text() == "# Evaluation\n"
-    assert not list(cache.glob("*/0*/scene.key"))  # nothing half-rendered took a scene's place
+    assert not list(cache.glob("*/0*/scene.key")) and not list(cache.rglob("score_*.json"))
+    assert list(cache.glob("*/.*.partial-*"))  # killed mid-render: the half-written scenes stayed hidden beside their folders
+    job = Job("hue_wall", 1_000_000, str(cache), frames=2, scale=0.2)
+    assert cli_main(["stress", "--set", "report", "--seeds", "1", "--categories", "hue_wall", "--frames", "2", "--scale", "0.2",
+                     "--jobs", "1", "--cache", str(cache), "--quiet"]) == 0  # fmt: skip
+    assert (job.folder / "scene.key").is_file() and not list(cache.glob("*/.*.partial-*"))
+
+
+def test_scenes_pin_no_tracker_setting_so_the_tracker_is_measured_as_configured():
+    """A scene's recording holds its typed target only (fast_ball: its depth range too); every other setting is the
+    checkout's default when `stress` tracks it, so changing a default changes what the next run measures."""
+    from stereotrack.config import config_to_dict
+    from stereotrack.simulation.stress import seeds, stress_scene
+
+    for category in CATEGORIES:
+        written = config_to_dict(stress_scene(category, seeds("report", 1)[0]).config())
+        assert set(written) <= {"targets", "tracker"}, (category, written)
+        assert set(written.get("tracker", {})) <= ({"d_min", "d_max"} if category == "fast_ball" else set()), (category, written)
