@@ -213,8 +213,13 @@ def scene_key(spec) -> str:
 
     written = config_to_dict(spec.config())
     scene = _canonical(dataclasses.replace(spec, user_config=None))
-    text = json.dumps([scene, written], sort_keys=True) + _source_hash(PACKAGE / p for p in RENDER_CODE) + renderer_fingerprint()
+    text = json.dumps([scene, written], sort_keys=True) + render_code_key() + renderer_fingerprint()
     return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+@functools.cache  # once per process: parsing the code took 1.4 s per scene, as long as tracking a small one
+def render_code_key() -> str:
+    return _source_hash(PACKAGE / p for p in RENDER_CODE)
 
 
 @functools.cache
@@ -242,6 +247,7 @@ def renderer_fingerprint() -> str:
     return h.hexdigest()[:24]
 
 
+@functools.cache
 def code_key() -> str:
     """Changes when the code that tracks or scores changes: the package but the scene side (keyed by scene_key) and this command."""
     own = {PACKAGE / "commands" / "stress.py"}
