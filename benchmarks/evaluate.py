@@ -48,6 +48,8 @@ TARGETS = {
     "crossing": {"id_switches": ("<=", 0)},
     "pendulum4": {"id_switches": ("<=", 0), "mota": (">=", 0.97)},
 }
+# Sections of the report that other commands write (`stereotrack stress --docs`, benchmarks/real_footage.py --docs).
+OTHER_SECTIONS = ("stress", "real-footage")
 BEAT_BASELINE = ("crossing", "clutter", "juggle5@30", "juggle5@60")
 
 
@@ -206,8 +208,15 @@ def main() -> None:
         results_path.parent.mkdir(parents=True, exist_ok=True)
         results_path.write_text(json.dumps(results, indent=1))
     ordered = {label: results[label] for label, _, _ in SCENES if label in results and label in args.scenes}
+    from stereotrack.files import read_section, replace_section
+
     Path(args.report).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.report).write_text(report(ordered, args))
+    text = report(ordered, args)
+    kept = {name: read_section(args.report, name) for name in OTHER_SECTIONS}  # written by other commands: keep them
+    Path(args.report).write_text(text)
+    for name, body in kept.items():
+        if body is not None:
+            replace_section(args.report, name, body)
     print(f"report written to {args.report}")
 
 

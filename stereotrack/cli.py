@@ -22,6 +22,7 @@ COMMANDS: list[str] = [
     "cameras",
     "live",
     "synth",
+    "stress",
     "board",
     "calibrate",
 ]
