@@ -33,9 +33,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", type=int, help="track at most this many frames")
     p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(p)
+    add_network_arguments(p)
 
 
 def resolve_config(recording, config_path: str | None):
@@ -70,8 +72,10 @@ def track_recording(args, default_out: Path | None = None) -> int:
     from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import run_pipeline
     from ..recording import open_recording, read_truth
+    from ..sinks.network import check_network_flags
     from ..sinks.tracks_csv import read_tracks
 
+    check_network_flags(args)
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
     config = resolve_config(rec, args.config)

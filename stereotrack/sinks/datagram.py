@@ -1,0 +1,105 @@
+"""What the network sink sends (formats.md section 5): one message per frame, as JSON or as an OSC bundle.
+
+A message holds the frame, its capture time, the send time, and every track
+tracks.csv would write for that frame (``FrameResult.confirmed``): id,
+target, state, position, velocity, standard deviations, and for a ball in
+free flight where its parabola comes down through the landing height.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import StereotrackError
+from ..results import TrackEstimate
+from ..tracks.flight import landing
+
+SCHEMA = "stereotrack.tracks"
+VERSION = 1
+OSC_PREFIX = "/stereotrack"
+
+
+@dataclass(frozen=True, eq=False)
+class FrameTracks:
+    """The part of a frame's result that is sent: taken on the tracker's thread, encoded on the sender's."""
+
+    frame: int
+    time: float  # the pair's capture time (tracks.csv's time), seconds
+    tracks: tuple[TrackEstimate, ...]  # the reported tracks (tracks.csv's rows of this frame)
+
+
+def _r(values, digits: int) -> list[float]:
+    return [round(float(v), digits) for v in values]
+
+
+def message(frame: FrameTracks, sent: float, landing_height: float | None) -> dict:
+    """The frame as a JSON-ready dict (schema version 1). ``sent``: the send time on the capture clock;
+    ``landing_height``: metres along the up axis, or None for no landing predictions."""
+    tracks = []
+    for tr in frame.tracks:
+        sd = np.sqrt(np.clip(np.diag(tr.covariance), 0, None))
+        land = None
+        if tr.flight is not None and landing_height is not None:
+            hit = landing(tr.flight, landing_height, after=frame.time)
+            if hit is not None:
+                land = {"position": _r(hit[0], 5), "time": round(hit[1], 6)}
+        tracks.append(
+            {
+                "id": int(tr.track_id),
+                "target": tr.target,
+                "state": tr.state,
+                "position": _r(tr.position, 5),
+                "velocity": _r(tr.velocity, 4),
+                "sd": _r(sd, 5),
+                "flying": tr.flight is not None,
+                "landing": land,
+            }
+        )
+    return {
+        "schema": SCHEMA,
+        "version": VERSION,
+        "frame": int(frame.frame),
+        "time": round(frame.time, 6),
+        "sent": round(sent, 6),
+        "landing_height": landing_height,
+        "tracks": tracks,
+    }
+
+
+def encode_json(msg: dict) -> bytes:
+    return json.dumps(msg, separators=(",", ":")).encode()
+
+
+def osc_encoder():
+    """``encode(msg) -> bytes``: the message as one OSC bundle (python-osc, an optional extra, imported here only)."""
+    try:
+        from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
+        from pythonosc.osc_message_builder import OscMessageBuilder
+    except ImportError:
+        raise StereotrackError(
+            "--osc needs python-osc: pip install 'stereotrack[osc]' (or pip install python-osc) in this environment"
+        ) from None
+
+    def osc(address: str, args: Sequence[tuple[object, str]]):
+        b = OscMessageBuilder(address=f"{OSC_PREFIX}/{address}")
+        for value, kind in args:
+            b.add_arg(value, kind)
+        return b.build()
+
+    def encode(msg: dict) -> bytes:
+        bundle = OscBundleBuilder(IMMEDIATELY)
+        head = [(msg["version"], "i"), (msg["frame"], "i"), (msg["time"], "d"), (msg["sent"], "d"), (len(msg["tracks"]), "i")]
+        bundle.add_content(osc("frame", head))
+        for t in msg["tracks"]:
+            numbers = [(v, "f") for v in (*t["position"], *t["velocity"], *t["sd"])]
+            bundle.add_content(osc("track", [(t["id"], "i"), (t["target"], "s"), (t["state"], "s"), *numbers]))
+            if t["landing"] is not None:
+                land = t["landing"]
+                bundle.add_content(osc("landing", [(t["id"], "i"), *[(v, "f") for v in land["position"]], (land["time"], "d")]))
+        return bundle.build().dgram
+
+    return encode
