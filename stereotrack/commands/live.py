@@ -58,10 +58,9 @@ def simulated_scene(specs: list[str], settings):
         raise StereotrackError(
             "sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config"
         )
-    from ..simulation.presets import make_preset
-
     from dataclasses import replace
 
+    from ..simulation.presets import make_preset
     from ..simulation.spec import WORLD_UP
 
     spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
@@ -130,9 +129,8 @@ def run(args: argparse.Namespace) -> int:
     from ..console import info
     from ..errors import StereotrackError
     from ..pipeline.assemble import make_tracker, open_sinks
-    from ..sinks.recorder import RecordingSink
-
     from ..sinks.network import check_network_flags
+    from ..sinks.recorder import RecordingSink
 
     check_network_flags(args)
     specs = camera_specs(args)

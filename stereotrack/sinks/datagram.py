@@ -21,6 +21,7 @@ from ..tracks.flight import landing
 SCHEMA = "stereotrack.tracks"
 VERSION = 1
 OSC_PREFIX = "/stereotrack"
+NAN = float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,8 +33,9 @@ class FrameTracks:
     tracks: tuple[TrackEstimate, ...]  # the reported tracks (tracks.csv's rows of this frame)
 
 
-def _r(values, digits: int) -> list[float]:
-    return [round(float(v), digits) for v in values]
+def _r(values, digits: int) -> list[float | None]:
+    """Rounded numbers; a non-finite one becomes null (JSON has no NaN)."""
+    return [round(float(v), digits) if np.isfinite(v) else None for v in values]
 
 
 def message(frame: FrameTracks, sent: float, landing_height: float | None) -> dict:
@@ -71,7 +73,7 @@ def message(frame: FrameTracks, sent: float, landing_height: float | None) -> di
 
 
 def encode_json(msg: dict) -> bytes:
-    return json.dumps(msg, separators=(",", ":")).encode()
+    return json.dumps(msg, separators=(",", ":"), allow_nan=False).encode()
 
 
 def osc_encoder():
@@ -95,7 +97,7 @@ def osc_encoder():
         head = [(msg["version"], "i"), (msg["frame"], "i"), (msg["time"], "d"), (msg["sent"], "d"), (len(msg["tracks"]), "i")]
         bundle.add_content(osc("frame", head))
         for t in msg["tracks"]:
-            numbers = [(v, "f") for v in (*t["position"], *t["velocity"], *t["sd"])]
+            numbers = [(NAN if v is None else v, "f") for v in (*t["position"], *t["velocity"], *t["sd"])]  # OSC floats know NaN
             bundle.add_content(osc("track", [(t["id"], "i"), (t["target"], "s"), (t["state"], "s"), *numbers]))
             if t["landing"] is not None:
                 land = t["landing"]

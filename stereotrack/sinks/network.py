@@ -121,6 +121,7 @@ class NetworkSink:
                 sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)  # so a broadcast address the user gave works
             self._sockets[family] = sock
         self.frames = 0  # frames written
+        self.frames_sent = 0  # frames the sender encoded and sent (to every destination it could)
         self.sent = 0  # datagrams sent, over all destinations
         self.dropped = 0  # frames dropped from the queue because the sender fell behind
         self.failed = 0  # sends that failed (full buffer, no route, too large)
@@ -152,7 +153,10 @@ class NetworkSink:
             sock.close()
         if not self.quiet:
             where = ", ".join(str(d) for d in self.destinations)
-            info(f"network: {self.frames} frames sent to {where}; {self.dropped} dropped while the sender was behind, {self.failed} sends failed")
+            info(
+                f"network: {self.frames_sent} of {self.frames} frames sent to {where}; "
+                f"{self.dropped} dropped while the sender was behind, {self.failed} sends failed"
+            )
 
     # ------------------------------------------------------------------ sender thread
 
@@ -164,7 +168,13 @@ class NetworkSink:
                 if not self._queue:
                     return
                 item = self._queue.popleft()
-            self._send(item)
+            try:
+                self._send(item)
+            except Exception as exc:  # a frame that cannot be encoded must not end the sender (or the run)
+                self.failed += 1
+                if self.first_error is None:
+                    self.first_error = f"encoding frame {item.frame}: {type(exc).__name__}: {exc}"
+                    warn(f"network: {self.first_error} (the run goes on)")
 
     def _send(self, item: FrameTracks) -> None:
         msg = message(item, self.clock(), self.landing_height)
@@ -178,6 +188,7 @@ class NetworkSink:
                 if self.first_error is None:
                     self.first_error = f"sending to {d}: {exc}"
                     warn(f"network: {self.first_error} (the run goes on; later failures are only counted)")
+        self.frames_sent += 1
 
 
 # ---------------------------------------------------------------------- command-line flags
