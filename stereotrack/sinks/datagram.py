@@ -9,8 +9,9 @@ free flight where its parabola comes down through the landing height.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -24,29 +25,35 @@ OSC_PREFIX = "/stereotrack"
 NAN = float("nan")
 
 
-@dataclass(frozen=True, eq=False)
-class FrameTracks:
-    """The part of a frame's result that is sent: taken on the tracker's thread, encoded on the sender's."""
+class FrameTracks(NamedTuple):
+    """The part of a frame's result that is sent: taken on the tracker's thread (cheaply: no arithmetic there),
+    encoded on the sender's."""
 
     frame: int
-    time: float  # the pair's capture time (tracks.csv's time), seconds
+    timestamps: tuple[float, ...]  # the cameras' capture times, seconds
     tracks: tuple[TrackEstimate, ...]  # the reported tracks (tracks.csv's rows of this frame)
+
+    @property
+    def time(self) -> float:
+        """The pair's capture time, as tracks.csv writes it (FramePair.time)."""
+        return float(np.mean(self.timestamps))
 
 
 def _r(values, digits: int) -> list[float | None]:
     """Rounded numbers; a non-finite one becomes null (JSON has no NaN)."""
-    return [round(float(v), digits) if np.isfinite(v) else None for v in values]
+    return [round(v, digits) if math.isfinite(v) else None for v in np.asarray(values, float).tolist()]
 
 
 def message(frame: FrameTracks, sent: float, landing_height: float | None) -> dict:
     """The frame as a JSON-ready dict (schema version 1). ``sent``: the send time on the capture clock;
     ``landing_height``: metres along the up axis, or None for no landing predictions."""
     tracks = []
+    time = frame.time
     for tr in frame.tracks:
-        sd = np.sqrt(np.clip(np.diag(tr.covariance), 0, None))
+        sd = [math.sqrt(v) if v > 0 else 0.0 for v in np.diag(tr.covariance).tolist()]
         land = None
         if tr.flight is not None and landing_height is not None:
-            hit = landing(tr.flight, landing_height, after=frame.time)
+            hit = landing(tr.flight, landing_height, after=time)
             if hit is not None:
                 land = {"position": _r(hit[0], 5), "time": round(hit[1], 6)}
         tracks.append(
@@ -65,7 +72,7 @@ def message(frame: FrameTracks, sent: float, landing_height: float | None) -> di
         "schema": SCHEMA,
         "version": VERSION,
         "frame": int(frame.frame),
-        "time": round(frame.time, 6),
+        "time": round(time, 6),
         "sent": round(sent, 6),
         "landing_height": landing_height,
         "tracks": tracks,

@@ -133,7 +133,7 @@ class NetworkSink:
         self._thread.start()
 
     def write(self, result: FrameResult) -> None:
-        item = FrameTracks(result.frame.index, result.frame.time, result.confirmed)
+        item = FrameTracks(result.frame.index, result.frame.timestamps, result.confirmed)
         with self._wake:
             if len(self._queue) == self._queue.maxlen:
                 self.dropped += 1

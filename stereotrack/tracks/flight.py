@@ -10,6 +10,8 @@ chose, e.g. a catcher's hand or the floor.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..results import Parabola
@@ -39,18 +41,20 @@ def landing(flight: Parabola, height: float, after: float | None = None) -> tupl
     reaches that height, or came down through it before ``after`` (default: the
     parabola's own time), i.e. the ball is already below it and falling.
     """
-    g = float(np.linalg.norm(flight.acceleration))
+    # plain floats: this runs per flying ball and frame in the network sender, where numpy's per-call cost dominates
+    acc, pos, vel = flight.acceleration.tolist(), flight.position.tolist(), flight.velocity.tolist()
+    g = math.hypot(*acc)
     if g <= 0:
         return None
-    up = -flight.acceleration / g
-    h0 = float(flight.position @ up) - height  # height above the landing plane
-    vh = float(flight.velocity @ up)
+    up = [-a / g for a in acc]
+    h0 = sum(p * u for p, u in zip(pos, up)) - height  # height above the landing plane
+    vh = sum(v * u for v, u in zip(vel, up))
     disc = vh * vh + 2.0 * g * h0
     if disc < 0:  # the apex stays below the plane
         return None
-    dt = (vh + np.sqrt(disc)) / g  # the later root: on the way down
+    dt = (vh + math.sqrt(disc)) / g  # the later root: on the way down
     when = flight.time + dt
     if when < (flight.time if after is None else after):
         return None
-    point = flight.position + flight.velocity * dt + 0.5 * flight.acceleration * dt * dt
+    point = np.array([p + v * dt + 0.5 * a * dt * dt for p, v, a in zip(pos, vel, acc)])
     return point, float(when)
