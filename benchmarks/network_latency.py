@@ -17,11 +17,11 @@ segment = frames tracked / segment length.
 
 Part 2, throughput: live, the cameras cap the tracker at 30 frames/s, which
 hides a cost when the tracker is faster. So the tracker also runs as fast as
-it can over ``--frames`` pre-decoded pairs, alone and with the sink, runs
-alternating (as benchmarks/viewer.py), frames/s from the medians; and the
-sink's CPU per frame is timed on each thread (tracker's thread: ``write``;
-sender thread: encode + send), which other load on the machine does not
-inflate.
+it can over ``--frames`` pre-decoded pairs, alone, with ``--udp`` and with
+``--udp --osc``, runs alternating (as benchmarks/viewer.py), frames/s from
+the medians; and the CPU time of the sink's ``write`` (encode + send) and of
+the tracker's step are timed on their thread, which other load on the
+machine inflates far less than wall time.
 """
 
 from __future__ import annotations
@@ -88,24 +88,22 @@ class Switched:
         self.sink.close()
 
 
-class ThreadTimed:
-    """Adds up the CPU time of the sink's write (tracker's thread) and of its sender's encode + send."""
+class CpuTimed:
+    """Adds up the CPU time of a sink's write (encode + send, on the tracker's thread) or of a tracker's step."""
 
-    def __init__(self, sink: NetworkSink):
-        self.sink, self.write_s, self.send_s = sink, 0.0, 0.0
-        send = sink._send
-
-        def timed_send(item):
-            t = time.thread_time()
-            send(item)
-            self.send_s += time.thread_time() - t
-
-        sink._send = timed_send
+    def __init__(self, sink):
+        self.sink, self.seconds = sink, 0.0
 
     def write(self, result) -> None:
         t = time.thread_time()
         self.sink.write(result)
-        self.write_s += time.thread_time() - t
+        self.seconds += time.thread_time() - t
+
+    def step(self, pair):
+        t = time.thread_time()
+        out = self.sink.step(pair)
+        self.seconds += time.thread_time() - t
+        return out
 
     def close(self) -> None:
         self.sink.close()
@@ -147,6 +145,7 @@ def live_part(a, tmp: Path) -> None:
     on_fps = [fps[s] for s in counted if s % 2 == 0]
     off_fps = [fps[s] for s in counted if s % 2 == 1]
     sent = np.array([1000 * (s - capture[f]) for f, s, _, _ in rows if segment_of.get(f) in counted])
+    after = np.array([1000 * (s - capture[f] - estimate[f]) for f, s, _, _ in rows if segment_of.get(f) in counted])
     arrived = np.array([1000 * (r - capture[f]) for f, _, r, _ in rows if segment_of.get(f) in counted])
     est_on = np.array([1000 * estimate[f] for f, s in segment_of.items() if s in counted and s % 2 == 0])
     est_off = np.array([1000 * estimate[f] for f, s in segment_of.items() if s in counted and s % 2 == 1])
@@ -161,7 +160,7 @@ def live_part(a, tmp: Path) -> None:
     )
     print(
         f"  grab-to-estimate median: sink on {np.median(est_on):.1f} ms, off {np.median(est_off):.1f} ms; "
-        f"send after estimate: {np.median(sent) - np.median(est_on):.2f} ms (medians)"
+        f"estimate to send, per frame: median {np.median(after):.2f} ms, 95% {np.percentile(after, 95):.2f} ms"
     )
     ratio = statistics.median(on_fps) / statistics.median(off_fps)
     print(
@@ -182,34 +181,39 @@ def throughput_part(a, tmp: Path) -> None:
     pairs = list(rec.frames())
     received = tmp / "throughput.json"
     proc, port = start_receiver(received)
-    times: dict[str, list[float]] = {"alone": [], "sink": []}
-    write_ms, send_ms = [], []
+    osc_port = port + 1 if port < 65535 else port - 1  # nobody listens there: UDP does not mind
+    times: dict[str, list[float]] = {"alone": [], "udp": [], "udp+osc": []}
+    sink_ms: dict[str, list[float]] = {"udp": [], "udp+osc": []}
+    step_ms = []
     for _ in range(a.repeats):
-        for mode in ("alone", "sink"):
-            tracker = Tracker(rec.rig, config)
+        for mode in times:
+            tracker = CpuTimed(Tracker(rec.rig, config))
             sinks = []
-            if mode == "sink":
-                sinks = [ThreadTimed(NetworkSink([parse_destination(f"127.0.0.1:{port}")], landing_height=0.0, quiet=True))]
+            if mode != "alone":
+                where = [parse_destination(f"127.0.0.1:{port}")] + (
+                    [parse_destination(f"127.0.0.1:{osc_port}", "osc")] if "osc" in mode else []
+                )
+                sinks = [CpuTimed(NetworkSink(where, landing_height=0.0, quiet=True))]
             start = time.perf_counter()
-            run_pipeline(pairs, tracker, sinks, progress=False)  # closing the sink (the last sends) is timed
+            run_pipeline(pairs, tracker, sinks, progress=False)
             times[mode].append(time.perf_counter() - start)
+            step_ms.append(1000 * tracker.seconds / len(pairs))
             if sinks:
-                write_ms.append(1000 * sinks[0].write_s / len(pairs))
-                send_ms.append(1000 * sinks[0].send_s / len(pairs))
+                sink_ms[mode].append(1000 * sinks[0].seconds / len(pairs))
     rows = stop_receiver(proc, port, received)
     fps = {m: len(pairs) / statistics.median(t) for m, t in times.items()}
-    change = 100 * (fps["sink"] / fps["alone"] - 1)
-    step_ms = 1000 / fps["alone"]
+    step = statistics.median(step_ms)
     print(
-        f"throughput {a.preset}: {len(pairs)} pre-decoded pairs, {a.repeats} alternating runs each (medians): tracker alone "
-        f"{fps['alone']:.1f} frames/s, with the sink {fps['sink']:.1f} frames/s ({change:+.1f} %); {len(rows)} datagrams received "
-        f"of {a.repeats * len(pairs)}"
+        f"throughput {a.preset}: {len(pairs)} pre-decoded pairs, {a.repeats} alternating runs each (medians); "
+        f"{len(rows)} JSON datagrams received of {2 * a.repeats * len(pairs)}"
     )
-    print(
-        f"  sink CPU per frame: {1000 * statistics.median(write_ms):.1f} us on the tracker's thread (write), "
-        f"{1000 * statistics.median(send_ms):.1f} us in the sender thread (encode + send), "
-        f"together {100 * (statistics.median(write_ms) + statistics.median(send_ms)) / step_ms:.2f} % of the tracker's {step_ms:.1f} ms per frame"
-    )
+    print(f"  tracker alone {fps['alone']:.1f} frames/s; tracker step CPU {step:.2f} ms per frame")
+    for mode in sink_ms:
+        cpu = statistics.median(sink_ms[mode])
+        print(
+            f"  with --{mode.replace('+', ' --')}: {fps[mode]:.1f} frames/s ({100 * (fps[mode] / fps['alone'] - 1):+.1f} %); "
+            f"sink CPU {1000 * cpu:.0f} us per frame = {100 * cpu / step:.2f} % of the step's CPU"
+        )
 
 
 def main() -> None:

@@ -26,8 +26,7 @@ NAN = float("nan")
 
 
 class FrameTracks(NamedTuple):
-    """The part of a frame's result that is sent: taken on the tracker's thread (cheaply: no arithmetic there),
-    encoded on the sender's."""
+    """The part of a frame's result that is sent."""
 
     frame: int
     timestamps: tuple[float, ...]  # the cameras' capture times, seconds
@@ -36,21 +35,23 @@ class FrameTracks(NamedTuple):
     @property
     def time(self) -> float:
         """The pair's capture time, as tracks.csv writes it (FramePair.time)."""
-        return float(np.mean(self.timestamps))
+        return sum(self.timestamps) / len(self.timestamps)  # = np.mean for a few cameras, without its per-call cost
 
 
-def _r(values, digits: int) -> list[float | None]:
+def _r(values: np.ndarray | list[float], digits: int) -> list[float | None]:
     """Rounded numbers; a non-finite one becomes null (JSON has no NaN)."""
-    return [round(v, digits) if math.isfinite(v) else None for v in np.asarray(values, float).tolist()]
+    values = values.tolist() if isinstance(values, np.ndarray) else values
+    return [round(v, digits) if math.isfinite(v) else None for v in values]
 
 
 def message(frame: FrameTracks, sent: float, landing_height: float | None) -> dict:
     """The frame as a JSON-ready dict (schema version 1). ``sent``: the send time on the capture clock;
-    ``landing_height``: metres along the up axis, or None for no landing predictions."""
+    ``landing_height``: metres along the up axis, or None for no landing predictions.
+    Plain floats throughout: numpy's per-call cost would dominate on 3-vectors."""
     tracks = []
     time = frame.time
     for tr in frame.tracks:
-        sd = [math.sqrt(v) if v > 0 else 0.0 for v in np.diag(tr.covariance).tolist()]
+        sd = [math.sqrt(v) if v > 0 else 0.0 for v in tr.covariance.diagonal().tolist()]
         land = None
         if tr.flight is not None and landing_height is not None:
             hit = landing(tr.flight, landing_height, after=time)

@@ -1,11 +1,13 @@
 """Live tracks for other programs: each frame as a UDP datagram (JSON, or an OSC bundle) to the addresses given.
 
-Sending never holds the tracker back: ``write`` only queues the frame's
-tracks (a bounded queue; when the sender falls behind, the oldest frame is
-dropped and counted) and a sender thread encodes and sends them through
-non-blocking sockets. UDP needs no receiver: an absent, slow or vanished
-receiver costs the tracker nothing. Nothing listens; datagrams go only to
-the addresses the user gave.
+Sending never holds the tracker back: each frame is encoded (tens of
+microseconds) and handed to non-blocking sockets right after the tracker
+step, so it leaves at once; a datagram the kernel cannot take is dropped and
+counted, never waited for. (A sender thread would add latency, not save
+time: encoding holds the GIL wherever it runs; measured in BENCHMARKS.md.)
+UDP needs no receiver: an absent, slow or vanished receiver costs the
+tracker nothing. Nothing listens; datagrams go only to the addresses the
+user gave.
 """
 
 from __future__ import annotations
@@ -15,7 +17,6 @@ import math
 import socket
 import threading
 import time
-from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -88,19 +89,19 @@ def parse_destination(text: str, protocol: str = "udp", resolve_seconds: float =
 
 
 class NetworkSink:
-    """Sends every frame's reported tracks to each destination, from a sender thread; ``write`` never blocks.
+    """Sends every frame's reported tracks to each destination as it is written; ``write`` never waits.
 
-    ``queue_size`` frames wait at most; when the sender falls behind, the
-    oldest waiting frame is dropped (the newest position is the useful one).
-    ``clock`` must be the capture clock (live cameras: time.monotonic) so that
-    ``sent - time`` is the latency.
+    The sockets are non-blocking: a datagram the kernel cannot take at once
+    (send buffer full) is dropped and counted, never waited for. UDP needs no
+    receiver, so an absent, slow or vanished one costs nothing. ``clock`` must
+    be the capture clock (live cameras: time.monotonic) so that ``sent - time``
+    is the latency.
     """
 
     def __init__(
         self,
         destinations: Sequence[Destination],
         landing_height: float | None = None,
-        queue_size: int = 8,
         clock: Callable[[], float] = time.monotonic,
         quiet: bool = False,
     ):
@@ -116,79 +117,52 @@ class NetworkSink:
         self._sockets: dict[int, socket.socket] = {}
         for family in {d.family for d in self.destinations}:
             sock = socket.socket(family, socket.SOCK_DGRAM)
-            sock.setblocking(False)  # a full send buffer drops a datagram instead of stalling the sender
+            sock.setblocking(False)  # a full send buffer drops a datagram instead of stalling the tracker
             if family == socket.AF_INET:
                 sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)  # so a broadcast address the user gave works
             self._sockets[family] = sock
         self.frames = 0  # frames written
-        self.frames_sent = 0  # frames the sender encoded and sent (to every destination it could)
         self.sent = 0  # datagrams sent, over all destinations
-        self.dropped = 0  # frames dropped from the queue because the sender fell behind
-        self.failed = 0  # sends that failed (full buffer, no route, too large)
+        self.dropped = 0  # datagrams dropped because the send buffer was full
+        self.failed = 0  # datagrams that could not be sent (no route, too large, ...) or frames that could not be encoded
         self.first_error: str | None = None
-        self._queue: deque[FrameTracks] = deque(maxlen=queue_size)
-        self._wake = threading.Condition()
-        self._closing = False
-        self._thread = threading.Thread(target=self._run, name="network-sink", daemon=True)
-        self._thread.start()
 
     def write(self, result: FrameResult) -> None:
+        self.frames += 1
         item = FrameTracks(result.frame.index, result.frame.timestamps, result.confirmed)
-        with self._wake:
-            if len(self._queue) == self._queue.maxlen:
-                self.dropped += 1
-            self._queue.append(item)
-            self.frames += 1
-            self._wake.notify()
-
-    def close(self, timeout: float = 2.0) -> None:
-        """Send what is queued (for at most ``timeout`` s), stop the sender, close the sockets."""
-        with self._wake:
-            if self._closing:
-                return
-            self._closing = True
-            self._wake.notify()
-        self._thread.join(timeout)
-        for sock in self._sockets.values():
-            sock.close()
-        if not self.quiet:
-            where = ", ".join(str(d) for d in self.destinations)
-            info(
-                f"network: {self.frames_sent} of {self.frames} frames sent to {where}; "
-                f"{self.dropped} dropped while the sender was behind, {self.failed} sends failed"
-            )
-
-    # ------------------------------------------------------------------ sender thread
-
-    def _run(self) -> None:
-        while True:
-            with self._wake:
-                while not self._queue and not self._closing:
-                    self._wake.wait(0.5)
-                if not self._queue:
-                    return
-                item = self._queue.popleft()
-            try:
-                self._send(item)
-            except Exception as exc:  # a frame that cannot be encoded must not end the sender (or the run)
-                self.failed += 1
-                if self.first_error is None:
-                    self.first_error = f"encoding frame {item.frame}: {type(exc).__name__}: {exc}"
-                    warn(f"network: {self.first_error} (the run goes on)")
-
-    def _send(self, item: FrameTracks) -> None:
-        msg = message(item, self.clock(), self.landing_height)
-        payloads = {protocol: encode(msg) for protocol, encode in self._encoders.items()}
+        try:
+            msg = message(item, self.clock(), self.landing_height)
+            payloads = {protocol: encode(msg) for protocol, encode in self._encoders.items()}
+        except Exception as exc:  # a frame that cannot be encoded must not end the run
+            self._failure(f"encoding frame {item.frame}: {type(exc).__name__}: {exc}")
+            return
         for d in self.destinations:
             try:
                 self._sockets[d.family].sendto(payloads[d.protocol], d.address)
                 self.sent += 1
-            except OSError as exc:  # BlockingIOError (buffer full), no route, message too long, ...
-                self.failed += 1
-                if self.first_error is None:
-                    self.first_error = f"sending to {d}: {exc}"
-                    warn(f"network: {self.first_error} (the run goes on; later failures are only counted)")
-        self.frames_sent += 1
+            except BlockingIOError:
+                self.dropped += 1
+            except OSError as exc:  # no route, message too long, ...
+                self._failure(f"sending to {d}: {exc}")
+
+    def close(self) -> None:
+        if not self._sockets:
+            return
+        for sock in self._sockets.values():
+            sock.close()
+        self._sockets = {}
+        if not self.quiet:
+            where = ", ".join(str(d) for d in self.destinations)
+            info(
+                f"network: {self.frames} frames to {where}: {self.sent} datagrams sent, "
+                f"{self.dropped} dropped (send buffer full), {self.failed} failed"
+            )
+
+    def _failure(self, what: str) -> None:
+        self.failed += 1
+        if self.first_error is None:
+            self.first_error = what
+            warn(f"network: {what} (the run goes on; later failures are only counted)")
 
 
 # ---------------------------------------------------------------------- command-line flags
