@@ -1,8 +1,8 @@
 """Live tracks for other programs: each frame as a UDP datagram (JSON, or an OSC bundle) to the addresses given.
 
-Sending never holds the tracker back: each frame is encoded (tens of
-microseconds) and handed to non-blocking sockets right after the tracker
-step, so it leaves at once; a datagram the kernel cannot take is dropped and
+Sending never holds the tracker back: each frame is encoded (JSON: about
+0.1 ms for four balls on the loaded 2-core machine) and handed to
+non-blocking sockets right after the tracker step, so it leaves at once; a datagram the kernel cannot take is dropped and
 counted, never waited for. (A sender thread would add latency, not save
 time: encoding holds the GIL wherever it runs; measured in BENCHMARKS.md.)
 UDP needs no receiver: an absent, slow or vanished receiver costs the

@@ -328,3 +328,17 @@ def test_a_failing_destination_is_counted_and_the_others_still_get_every_frame(m
     receiver.stop()
     assert sink.failed == 5 and sink.sent == 5 and sink.dropped == 0 and len(warnings) == 1
     assert [json.loads(d)["frame"] for _, d in receiver.got] == [0, 1, 2, 3, 4]
+
+
+def test_a_non_finite_number_is_sent_as_null_so_the_json_stays_strict():
+    from stereotrack.sinks.datagram import FrameTracks, encode_json, message
+
+    track = TrackEstimate(7, 'a "quoted" name', np.array([np.nan, 1.0, 2.0]), np.zeros(3), np.eye(3), "coasting", reported=True)
+    data = encode_json(message(FrameTracks(3, (0.5, 0.5), (track,)), 1.25, None))
+
+    def refuse(name):
+        raise ValueError(f"not strict JSON: {name}")
+
+    msg = json.loads(data, parse_constant=refuse)
+    assert msg["tracks"][0]["position"] == [None, 1.0, 2.0] and msg["tracks"][0]["target"] == 'a "quoted" name'
+    assert (msg["frame"], msg["time"], msg["sent"], msg["landing_height"]) == (3, 0.5, 1.25, None)
