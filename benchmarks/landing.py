@@ -242,8 +242,6 @@ def markdown(results: dict, seed: int) -> str:
             f"{AHEAD:g} s before landing, median error **{_mm(a['median_mm'])} mm** (worst {_mm(a['max_mm'])} mm) "
             f"over the {a['landings']} landings that had a prediction then; model floor {_mm(r['floor_mm'])} mm.",
             "",
-            "| time before landing (s) | predictions | landings | median error (mm) | 90 % error (mm) | median landing-time error (ms) |",
-            "|---|---|---|---|---|---|",
         ]
         if not any(b["n"] for b in r["summary"]["bins"]):
             sd = "/".join(f"{v:.0f}" for v in r["sd_mm"])
@@ -255,6 +253,10 @@ def markdown(results: dict, seed: int) -> str:
                 "",
             ]
             continue
+        lines += [
+            "| time before landing (s) | predictions | landings | median error (mm) | 90 % error (mm) | median landing-time error (ms) |",
+            "|---|---|---|---|---|---|",
+        ]
         for b in r["summary"]["bins"]:
             lines.append(
                 f"| {b['from']:.2f}-{b['to']:.2f} | {b['n']} | {b['landings']} | {_mm(b['median_mm'])} | {_mm(b['p90_mm'])} | {_mm(b['time_ms'])} |"

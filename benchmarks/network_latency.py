@@ -18,8 +18,9 @@ segment = frames tracked / segment length.
 Part 2, throughput: live, the cameras cap the tracker at 30 frames/s, which
 hides a cost when the tracker is faster. So the tracker also runs as fast as
 it can over ``--frames`` pre-decoded pairs, alone, with ``--udp`` and with
-``--udp --osc``, runs alternating (as benchmarks/viewer.py), frames/s from
-the medians; and the CPU time of the sink's ``write`` (encode + send) and of
+``--udp --osc``, runs alternating (as benchmarks/viewer.py; the order rotates
+each repeat), frames/s from the medians and the median of the per-repeat
+ratios; and the CPU time of the sink's ``write`` (encode + send) and of
 the tracker's step are timed on their thread, which other load on the
 machine inflates far less than wall time.
 """
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -185,8 +187,9 @@ def throughput_part(a, tmp: Path) -> None:
     times: dict[str, list[float]] = {"alone": [], "udp": [], "udp+osc": []}
     sink_ms: dict[str, list[float]] = {"udp": [], "udp+osc": []}
     step_ms = []
-    for _ in range(a.repeats):
-        for mode in times:
+    modes = list(times)
+    for rep in range(a.repeats):
+        for mode in modes[rep % 3 :] + modes[: rep % 3]:  # each mode in each position in turn: no order bias
             tracker = CpuTimed(Tracker(rec.rig, config))
             sinks = []
             if mode != "alone":
@@ -210,8 +213,11 @@ def throughput_part(a, tmp: Path) -> None:
     print(f"  tracker alone {fps['alone']:.1f} frames/s; tracker step CPU {step:.2f} ms per frame")
     for mode in sink_ms:
         cpu = statistics.median(sink_ms[mode])
+        # the ratio within each repeat (the runs of one repeat are seconds apart, so they share the machine's load)
+        paired = statistics.median(al / t for al, t in zip(times["alone"], times[mode]))
         print(
-            f"  with --{mode.replace('+', ' --')}: {fps[mode]:.1f} frames/s ({100 * (fps[mode] / fps['alone'] - 1):+.1f} %); "
+            f"  with --{mode.replace('+', ' --')}: {fps[mode]:.1f} frames/s ({100 * (fps[mode] / fps['alone'] - 1):+.1f} %; "
+            f"median of the {a.repeats} per-repeat ratios {100 * (paired - 1):+.1f} %); "
             f"sink CPU {1000 * cpu:.0f} us per frame = {100 * cpu / step:.2f} % of the step's CPU"
         )
 
@@ -228,10 +234,12 @@ def main() -> None:
     ap.add_argument("--preset", default="pendulum4")
     ap.add_argument("--skip-throughput", action="store_true")
     a = ap.parse_args()
+    print(f"load average at start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores; the machine is shared)")
     with tempfile.TemporaryDirectory() as tmp:
         live_part(a, Path(tmp))
         if not a.skip_throughput:
             throughput_part(a, Path(tmp))
+    print(f"load average at end {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

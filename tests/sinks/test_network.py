@@ -175,7 +175,7 @@ def test_osc_bundles_carry_the_same_tracks(run):
         assert head.address == "/stereotrack/frame"
         version, frame, t, sent, n = head.params
         ref = msgs[frame]
-        assert version == 1 and t == pytest.approx(ref["time"]) and n == len(ref["tracks"])
+        assert version == 1 and t == pytest.approx(ref["time"], abs=1e-6) and n == len(ref["tracks"])  # JSON: microseconds
         tracks = {m.params[0]: m.params for m in contents if m.address == "/stereotrack/track"}
         assert len(tracks) == n
         for tr in ref["tracks"]:
