@@ -39,6 +39,19 @@ class Object3D:
 
 
 @dataclass(frozen=True, eq=False)
+class Parabola:
+    """A ball in free flight: the parabola fitted to its recent positions under gravity.
+
+    ``p(t) = position + velocity (t - time) + acceleration (t - time)^2 / 2``, world metres and seconds.
+    """
+
+    time: float  # seconds, the time of the latest position fitted
+    position: np.ndarray  # 3, world metres, at ``time``
+    velocity: np.ndarray  # 3, metres per second, at ``time``
+    acceleration: np.ndarray  # 3, m/s^2: gravity
+
+
+@dataclass(frozen=True, eq=False)
 class TrackEstimate:
     """A ball with an identity over time."""
 
@@ -50,6 +63,7 @@ class TrackEstimate:
     state: str  # "tentative", "confirmed" or "coasting"
     n_particles: int = 0
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
+    flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,9 +18,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/demo/tracks.csv", help="tracks CSV (default out/demo/tracks.csv)")
     p.add_argument("--method", choices=["particles", "baseline"], default="particles", help=argparse.SUPPRESS)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(p)
+    add_network_arguments(p)
 
 
 def run(args) -> int:

@@ -40,9 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(parser)
+    add_network_arguments(parser)
 
 
 def simulated_scene(specs: list[str], settings):
@@ -59,10 +61,14 @@ def simulated_scene(specs: list[str], settings):
         raise StereotrackError(
             "sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config"
         )
+    from dataclasses import replace
+
     from ..simulation.presets import make_preset
+    from ..simulation.spec import WORLD_UP
 
     spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
-    return spec.rig.build(), spec.config()
+    config = spec.config()  # with the scene's up axis, as `track` takes it from a rendered recording: gravity for flights
+    return spec.rig.build(), replace(config, tracks=replace(config.tracks, up=WORLD_UP))
 
 
 class LatencySink:
@@ -129,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
+    from ..sinks.network import check_network_flags
 
+    check_network_flags(args)
     specs = camera_specs(args)
     settings = capture_settings(args)
     if args.seconds is not None and args.seconds <= 0:

@@ -42,9 +42,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a `live --record` recording: track every recorded frame, not only those the live run tracked",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(p)
+    add_network_arguments(p)
 
 
 def resolve_config(recording, config_path: str | None):
@@ -91,8 +93,10 @@ def _track(args, default_out: Path | None, stopper) -> int:
     from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import run_pipeline
     from ..recording import open_recording, read_truth
+    from ..sinks.network import check_network_flags
     from ..sinks.tracks_csv import read_tracks
 
+    check_network_flags(args)
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
     config = resolve_config(rec, args.config)

@@ -35,13 +35,18 @@ def open_sinks(
     live: bool = False,
     extra: Sequence[Sink] = (),
 ) -> list[Sink]:
-    """Every sink of a run, in the order each frame goes to them: the tracks CSV (when given), the rerun viewer
-    (when a viewer flag is given), then ``extra`` (e.g. ``live --record``'s recorder). ``live``: the viewer skips
-    a frame rather than hold live cameras back."""
+    """Every sink of a run, in the order each frame goes to them: the network sink (--udp/--osc: first, it is
+    the low-latency feed), the tracks CSV (when given), the rerun viewer (when a viewer flag is given), then
+    ``extra`` (e.g. ``live --record``'s recorder). ``live``: the viewer skips a frame rather than hold live
+    cameras back. The network addresses are checked before any file is opened."""
+    from ..sinks.network import make_network_sink
     from ..sinks.tracks_csv import TracksCsvSink
     from ..sinks.viewer.flags import make_viz_sink
 
     sinks: list[Sink] = []
+    network = make_network_sink(args, config)
+    if network is not None:
+        sinks.append(network)
     if tracks_csv is not None:
         sinks.append(TracksCsvSink(tracks_csv))
     viewer = make_viz_sink(args, rig, config, truth=truth, recording_name="live" if live else None, live=live)
