@@ -29,12 +29,14 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--calib", metavar="FILE", help="calibration YAML of the cameras (required unless every camera is sim:)")
     parser.add_argument("--config", metavar="FILE", help="target/tracker config YAML (required unless every camera is sim:)")
     parser.add_argument("--out", metavar="CSV", help="write the tracks to this CSV (formats.md section 3)")
     parser.add_argument("--record", metavar="DIR", help="also record the frame pairs the tracker saw into this recording folder")
     parser.add_argument("--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec for --record (default ffv1, lossless)")
-    parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--seconds", type=number(above=0), default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
     from ..sinks.viewer.flags import add_viz_arguments
@@ -126,8 +128,6 @@ def run(args: argparse.Namespace) -> int:
 
     specs = camera_specs(args)
     settings = capture_settings(args)
-    if args.seconds is not None and args.seconds <= 0:
-        raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
     scene = simulated_scene(specs, settings) if not (args.calib and args.config) else None
     if args.calib:
         rig = load_rig(args.calib)
@@ -149,21 +149,26 @@ def run(args: argparse.Namespace) -> int:
                 f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}"
             )
 
-    sinks = []
-    if args.out:
-        sinks.append(TracksCsvSink(args.out))
+    # Outputs are checked before anything starts; the tracks file opens last (a temporary name until the end).
+    from ..files import check_output
     from ..sinks.viewer.flags import make_viz_sink
 
-    viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
-    if viz is not None:
-        sinks.append(viz)
-    recorder = None
+    out_csv = check_output(args.out, "--out", "tracks CSV", [args.calib, args.config]) if args.out else None
     if args.record:
         from pathlib import Path
 
         out = Path(args.record)
-        if out.exists() and any(out.iterdir()):
-            raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            raise StereotrackError(f"--record {out}: exists and is not an empty folder (choose another --record folder)")
+    # without --seconds only Ctrl-C ends the run: a served viewer then stops with it (no second Ctrl-C)
+    viz = make_viz_sink(
+        args, rig, config, recording_name="live", live=True, protect=[args.calib, args.config, out_csv], hold=args.seconds is not None
+    )
+    sinks = [viz] if viz is not None else []
+    if out_csv is not None:
+        sinks.insert(0, TracksCsvSink(out_csv))
+    recorder = None
+    if args.record:
         from ..config import config_to_dict
 
         # the pairs the tracker saw, with the rig and targets in force: a replay is exact
@@ -179,9 +184,15 @@ def run(args: argparse.Namespace) -> int:
         )
         sinks.append(recorder)
 
-    # queue_size=1: the tracker always gets the newest pair; latency cannot build up
-    source = CameraPairSource(specs, [c.name for c in rig.cameras], settings, rig=rig, queue_size=1, stall_timeout=args.stall_timeout)
-    tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
+    try:
+        # queue_size=1: the tracker always gets the newest pair; latency cannot build up
+        source = CameraPairSource(specs, [c.name for c in rig.cameras], settings, rig=rig, queue_size=1, stall_timeout=args.stall_timeout)
+        tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
+    except BaseException:
+        from ..pipeline.run import close_all
+
+        close_all(sinks)  # a camera that does not open leaves no tracks file and no viewer behind
+        raise
     summary, latency = run_live(source, tracker, sinks, args.seconds, show=not args.quiet)
 
     stats = source.stats

@@ -25,11 +25,13 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--out", required=True, metavar="DIR", help="recording folder to create (recordings/NAME)")
     parser.add_argument(
         "--calib", metavar="FILE", help="calibration YAML to store with the recording (its cameras and image size must match)"
     )
-    parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--seconds", type=number(above=0), default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument(
         "--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec: ffv1 lossless .mkv (default) or mjpg .avi (smaller, lossy)"
     )
@@ -38,22 +40,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from ..camera import load_rig
     from ..capture.cameras import CameraPairSource
     from ..capture.signals import StopOnSignals
     from ..console import Progress, info
     from ..errors import StereotrackError
+    from ..files import check_output_folder
     from ..sinks.recorder import RecordingSink
 
     specs = camera_specs(args)
     settings = capture_settings(args)
-    out = Path(args.out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
-        raise StereotrackError(f"{out}: folder exists and is not empty (choose another --out or add --overwrite)")
-    if args.seconds is not None and args.seconds <= 0:
-        raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
+    out = check_output_folder(args.out, "--out", args.overwrite)
     rig = load_rig(args.calib) if args.calib else None
 
     source = CameraPairSource(specs, settings=settings, rig=rig, queue_size=64, stall_timeout=args.stall_timeout)

@@ -19,6 +19,8 @@ HELP = "track a recording: write tracks.csv (and a rerun .rrd)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     p.add_argument("recording", help="recording folder (meta.yaml, frames.csv, one video per camera)")
     p.add_argument("--config", help="target/tracker config YAML (default: the recording's own targets file)")
     p.add_argument("--calib", help="calibration YAML (default: the recording's calib.yaml)")
@@ -29,8 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="particles",
         help="the particle tracker (default) or the classic OpenCV pipeline",
     )
-    p.add_argument("--start", type=int, default=0, help="first frame (default 0)")
-    p.add_argument("--frames", type=int, help="track at most this many frames")
+    p.add_argument("--start", type=number(0, integer=True), default=0, help="first frame (default 0)")
+    p.add_argument("--frames", type=number(1, integer=True), help="track at most this many frames")
     p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     from ..sinks.viewer.flags import add_viz_arguments
@@ -78,23 +80,37 @@ def track_recording(args, default_out: Path | None = None) -> int:
     """Shared by `track` and `demo`."""
     from ..console import info, warn
     from ..errors import StereotrackError
-    from ..pipeline.run import run_pipeline
+    from ..files import check_output
     from ..recording import open_recording, read_truth
     from ..sinks.tracks_csv import TracksCsvSink, read_tracks
 
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
     config = resolve_config(rec, args.config)
-    if args.start < 0 or args.start >= max(rec.n_frames, 1):
+    if rec.n_frames == 0:
+        raise StereotrackError(f"{rec.folder}: the recording holds no complete frame pair")
+    if args.start >= rec.n_frames:
         raise StereotrackError(f"--start {args.start} is outside the recording's {rec.n_frames} frames")
     stop = rec.n_frames if args.frames is None else min(rec.n_frames, args.start + args.frames)
-    out = Path(args.out) if args.out else (default_out or rec.folder / "tracks.csv")
-    truth = read_truth(rec.truth_path) if rec.truth_path else None
-    tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
-    sinks = [TracksCsvSink(out)]
+    # Every output is checked before anything is written; none may be one of the run's inputs.
+    inputs = [*rec.own_files, rec.targets_path, args.config, args.calib]
+    out = check_output(args.out if args.out is not None else (default_out or rec.folder / "tracks.csv"), "--out", "tracks CSV", inputs)
+    truth = None
+    if rec.truth_path:
+        try:
+            truth = read_truth(rec.truth_path)
+        except StereotrackError as exc:  # scoring is a bonus; never refuse the run for it
+            warn(f"not scoring against truth.csv: {exc}")
     from ..sinks.viewer.flags import make_viz_sink
 
-    viz_sink = make_viz_sink(args, rig, config, truth=truth)  # None when no viewer flag is given
+    viz_sink = make_viz_sink(args, rig, config, truth=truth, protect=[*inputs, out])  # None when no viewer flag is given
+    try:
+        tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
+        sinks = [TracksCsvSink(out)]
+    except BaseException:
+        if viz_sink is not None:
+            viz_sink.close()
+        raise
     if viz_sink is not None:
         sinks.append(viz_sink)
     frames = rec.frames(args.start, stop)
@@ -111,6 +127,8 @@ def track_recording(args, default_out: Path | None = None) -> int:
 
         def close(self):
             pass
+
+    from ..pipeline.run import run_pipeline
 
     summary = run_pipeline(frames, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
     for name, count in objects_seen.items():
