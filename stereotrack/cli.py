@@ -94,10 +94,36 @@ def quiet_native_libraries() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; the exit status: 0, 2 (a user error, one line), 3 (a bug), 130 (Ctrl-C)."""
+    rc = _main(sys.argv[1:] if argv is None else list(argv))
+    if argv is None:  # the program itself (not a test calling main): its exit is bounded too
+        end_within(EXIT_SECONDS, rc)
+    return rc
+
+
+EXIT_SECONDS = 10.0  # after the command returns, the interpreter's exit (library hooks included) gets this long
+
+
+def end_within(seconds: float, rc: int) -> None:
+    """End the process with ``rc`` if its exit takes longer than ``seconds``: a library's exit hook (rerun
+    flushing to a viewer that went away) must not keep a finished command alive for ever."""
+    import os
+    import threading
+
+    def force() -> None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(rc)
+
+    timer = threading.Timer(seconds, force)
+    timer.daemon = True
+    timer.start()
+
+
+def _main(argv: list[str]) -> int:
     from .errors import StereotrackError
 
     quiet_native_libraries()
-    argv = sys.argv[1:] if argv is None else list(argv)
     try:
         args = build_parser().parse_args(argv)
     except UsageError as exc:

@@ -348,10 +348,10 @@ def _disconnect_bounded(rec: Any, seconds: float = 6.0) -> None:
     except KeyboardInterrupt:  # Ctrl-C while closing: leave now, and let no exit hook wait either
         rerun.unregister_shutdown()
         raise
+    rerun.unregister_shutdown()  # we closed it ourselves, in bounded time; rerun's exit hook would flush without a limit
     if closing.is_alive():
         from ...console import warn
 
-        rerun.unregister_shutdown()
         warn(f"the viewer connection did not close within {seconds:g} s; left open")
 
 
