@@ -26,7 +26,7 @@ def fixture(tmp_path_factory):
     from stereotrack.simulation.presets import make_preset
     from stereotrack.simulation.write import render_scene
 
-    render_scene(make_preset("pendulum4", n_frames=120, width=96, height=72), folder / "long", progress=False)  # 4 s at 30 fps
+    render_scene(make_preset("pendulum4", n_frames=75, width=96, height=72), folder / "long", progress=False)  # 2.5 s at 30 fps
     return folder
 
 

@@ -259,7 +259,7 @@ def _free_port() -> int:
 
 # --------------------------------------------------------------------------- where the log goes, opened and finished
 
-FLUSH_SECONDS = 3.0  # at the end, a viewer gets this long to take what is left (rerun's disconnect adds up to 5 s)
+FLUSH_SECONDS = 2.0  # at the end, a viewer gets this long to take what is left (rerun's disconnect adds up to 5 s)
 
 
 @dataclass
@@ -336,7 +336,7 @@ def finish_outlets(rec: Any, outlets: Outlets, keep_rrd: bool) -> None:
         stop_children([p for p in outlets.children if "--serve-web" in p.args])
 
 
-def _disconnect_bounded(rec: Any, seconds: float = 6.0) -> None:
+def _disconnect_bounded(rec: Any, seconds: float = 5.5) -> None:
     """rerun's disconnect waits up to 5 s for a viewer that went away, and for ever on a peer that stopped
     answering mid-stream; past ``seconds`` we leave it (and rerun's own exit hook, which would wait too)."""
     import rerun
