@@ -7,7 +7,6 @@ folder that the reader opens up to the last complete pair.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -146,6 +145,9 @@ class RecordingWriter:
 # --------------------------------------------------------------------------- reader
 
 
+MAX_TIMESTAMP = 1e10  # seconds: a monotonic clock (or even the epoch) stays far below; beyond it the motion model overflows
+
+
 def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
     """frames.csv -> n_frames x n_cameras timestamps, columns in ``names`` order (matched by the header's t_NAME).
 
@@ -165,7 +167,7 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
     columns = [header.index(f"t_{n}") for n in names]
     for body in (lines[1:], lines[1:-1]):  # every line whole, or all but a last one cut short by a killed writer
         table = _numeric_table(body, len(header))
-        if table is not None and np.array_equal(table[:, 0], np.arange(len(table))) and np.isfinite(table).all():
+        if table is not None and np.array_equal(table[:, 0], np.arange(len(table))) and (np.abs(table) < MAX_TIMESTAMP).all():
             return _checked_order(path, table[:, columns], names)
     # Something is wrong: find the first bad line, one by one.
     rows: list[list[float]] = []
@@ -185,8 +187,10 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
             ) from None
         if frame != len(rows):
             raise StereotrackError(f"{path}: line {line_no}: frame numbers must count up from 0 (expected {len(rows)}, got {frame})")
-        if not all(math.isfinite(t) for t in times):
-            raise StereotrackError(f"{path}: line {line_no}: timestamps must be finite numbers of seconds, got {','.join(fields[1:])[:60]}")
+        if not all(abs(t) < MAX_TIMESTAMP for t in times):  # also false for NaN
+            raise StereotrackError(
+                f"{path}: line {line_no}: timestamps must be finite numbers of seconds (below 1e10), got {','.join(fields[1:])[:60]}"
+            )
         rows.append(times)
     return _checked_order(path, np.asarray(rows, dtype=float).reshape(-1, len(names)), names)
 

@@ -83,11 +83,11 @@ def run(args: argparse.Namespace) -> int:
             source.close()
             sink.close()
             progress.close()
-    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "stopped" if error else "done"
-    info(f"{how}: {sink.count} pairs in {out} ({source.stats.line()})")
-    if error is not None:
+    if error is not None:  # one line: the error says what was kept
         kept = f"{sink.count} pairs kept in {out}" if sink.count else "nothing was recorded"
         raise StereotrackError(f"{error}; recording stopped, {kept}")
+    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "done"
+    info(f"{how}: {sink.count} pairs in {out} ({source.stats.line()})")
     if sink.count == 0:
         raise StereotrackError(
             "no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)"
