@@ -176,7 +176,7 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
         try:
             if len(fields) != len(header):
                 raise ValueError(f"expected {len(header)} values, got {len(fields)}")
-            frame = int(fields[0])
+            frame = float(fields[0])  # '3' or '3.0', as the fast path reads it
             times = [float(fields[c]) for c in columns]
         except ValueError as exc:
             if line_no == len(lines):
@@ -186,7 +186,7 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
                 f"expected {','.join(expected)} (only the last line may be cut short)"
             ) from None
         if frame != len(rows):
-            raise StereotrackError(f"{path}: line {line_no}: frame numbers must count up from 0 (expected {len(rows)}, got {frame})")
+            raise StereotrackError(f"{path}: line {line_no}: frame numbers must count up from 0 (expected {len(rows)}, got {fields[0]})")
         if not all(abs(t) < MAX_TIMESTAMP for t in times):  # also false for NaN
             raise StereotrackError(
                 f"{path}: line {line_no}: timestamps must be finite numbers of seconds (below 1e10), got {','.join(fields[1:])[:60]}"
