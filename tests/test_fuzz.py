@@ -14,7 +14,7 @@ from fuzzing import build_fixture, check, csv_documents, make_workspace, option_
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-EXAMPLES = int(os.environ.get("STEREOTRACK_FUZZ_EXAMPLES", "12"))
+EXAMPLES = int(os.environ.get("STEREOTRACK_FUZZ_EXAMPLES", "8"))
 fuzz_settings = settings(
     max_examples=EXAMPLES,
     deadline=None,
@@ -93,6 +93,7 @@ def test_any_file_content_exits_0_or_one_line(fixture, name, data):
 
 
 small_counts = st.one_of(st.sampled_from(["0", "-1", "nan", "inf", "1e9", "abc", ""]), st.integers(-3, 3).map(str))
+small_dpi = st.one_of(st.sampled_from(["0", "-1", "nan", "inf", "49", "2401", "1e9", "abc", "", "--"]), st.integers(50, 200).map(str))
 small_seconds = st.one_of(
     st.sampled_from(["0", "-1", "nan", "inf", "-inf", "1e-9", "abc", ""]), st.floats(0.05, 0.6).map(lambda x: f"{x:.2f}")
 )
@@ -131,7 +132,7 @@ OPTIONS = {
         },
         ("new/*",),
     ),
-    "board": (["board", "board.yaml", "--out", "b.png"], {"--dpi": option_values}, ("b.png",)),
+    "board": (["board", "board.yaml", "--out", "b.png"], {"--dpi": small_dpi}, ("b.png",)),
     "calibrate": (
         ["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--out", "out/rig.yaml", "--no-progress"],
         {"--max-views": option_values, "--subpix": option_values, "--drop-worst": option_values},
