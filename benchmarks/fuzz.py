@@ -39,8 +39,12 @@ def main() -> int:
     import test_fuzz
 
     fixture = fuzzing.build_fixture(Path(tempfile.mkdtemp(prefix="fuzz_fixture_")) / "fixture")
-    properties = [(f"file: {name}", test_fuzz.test_any_file_content_exits_0_or_one_line, {"name": name}, name) for name in test_fuzz.FILES]
-    properties += [(f"options: {c}", test_fuzz.test_any_option_value_exits_0_or_one_line, {"command": c}, c) for c in test_fuzz.OPTIONS]
+    properties = [
+        (f"file: {name}", test_fuzz.test_any_file_content_exits_0_or_one_line, {"name": name}, f"file {name}") for name in test_fuzz.FILES
+    ]
+    properties += [
+        (f"options: {c}", test_fuzz.test_any_option_value_exits_0_or_one_line, {"command": c}, f"options {c}") for c in test_fuzz.OPTIONS
+    ]
     properties += [("options: sim camera spec", test_fuzz.test_any_simulated_camera_spec_exits_0_or_one_line, {}, "sim camera")]
     failures = []
     t0 = time.monotonic()

@@ -87,7 +87,7 @@ def test_any_file_content_exits_0_or_one_line(fixture, name, data):
         else:
             content = data.draw(broken_bytes(valid), label=rel)
         (work / rel).write_bytes(content)
-        check(run_cli(argv, work, name), outputs)
+        check(run_cli(argv, work, f"file {name}"), outputs)
     finally:
         shutil.rmtree(work.parent, ignore_errors=True)
 
@@ -169,7 +169,7 @@ def test_any_option_value_exits_0_or_one_line(fixture, command, data):
         argv.append(f"{flag}={value}")  # '=' so a value that starts with '-' stays a value
     work = make_workspace(fixture)
     try:
-        check(run_cli(argv, work, command), outputs)
+        check(run_cli(argv, work, f"options {command}"), outputs)
     finally:
         shutil.rmtree(work.parent, ignore_errors=True)
 
