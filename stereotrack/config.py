@@ -54,6 +54,9 @@ class TrackerSettings:
     particles: int = setting(2000, "N, total particles per target", low=1, high=1_000_000)  # 10^7 took 34 s a frame: no run ends
     alpha: float = setting(0.2, "share of abductive (importance-sampled) particles, 0..1", low=0.0, high=1.0)
     window: int = setting(5, "colour window W in pixels (odd)", low=1, high=101)
+    likelihood: str = setting(
+        "colour_window", "observation model, a file of stereotrack/particles/likelihoods/ (colour_window: the paper's eq. 14)"
+    )
     motion_sigma: float = setting(0.02, "random-walk standard deviation per frame, metres", low=0.0, high=10.0)
     d_min: float = setting(0.2, "nearest depth along a viewing ray for abductive particles, metres", low=0.0, high=1000.0)
     d_max: float = setting(5.0, "farthest depth along a viewing ray, metres", low=0.0, high=1000.0)

@@ -1,10 +1,20 @@
-"""What sources deliver: one synchronised frame pair (an image per camera, with capture times)."""
+"""What sources deliver: synchronised frame pairs (an image per camera, with capture times), and what a source is.
+
+A source (``Source``) is any iterable of ``FramePair`` that also says which
+rig filmed it, its frame rate and how many pairs it holds, counts what it
+delivered and dropped, and closes: live cameras (``capture.CameraPairSource``),
+a recording (``capture.RecordingSource``). The tracker never knows which.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+
+from .camera import Rig
 
 
 @dataclass(frozen=True, eq=False)
@@ -19,3 +29,45 @@ class FramePair:
     def time(self) -> float:
         """The pair's time: the mean of its cameras' capture times."""
         return float(np.mean(self.timestamps))
+
+
+@dataclass(frozen=True)
+class CameraStats:
+    name: str
+    device: str
+    frames: int  # frames grabbed
+    fps: float  # measured over the last two seconds
+    dropped: int  # frames lost because the consumer was slow (bounded queue)
+    unpaired: int  # frames with no partner within the pairing tolerance
+
+
+@dataclass(frozen=True)
+class SourceStats:
+    cameras: tuple[CameraStats, ...]
+    pairs: int  # pairs handed to the consumer
+    pairs_dropped: int  # pairs dropped because the consumer was slow
+
+    def line(self) -> str:
+        """One status line: frames/s per camera, dropped and unpaired counts."""
+        fps = " ".join(f"{c.name} {c.fps:4.1f} fps" for c in self.cameras)
+        unpaired = "/".join(str(c.unpaired) for c in self.cameras)
+        return f"{fps} | pairs {self.pairs} | dropped {self.pairs_dropped} | unpaired {unpaired}"
+
+
+# --------------------------------------------------------------------------- pairing (pure logic)
+
+
+class Source(Protocol):
+    """Frame pairs from somewhere: iterate it, then ``close`` it (also after Ctrl-C)."""
+
+    rig: Rig | None  # the calibration in force, when the source knows it
+    fps: float  # nominal frame rate
+    camera_names: tuple[str, ...]
+    n_frames: int | None  # pairs it will deliver; None for live cameras
+
+    def __iter__(self) -> Iterator[FramePair]: ...
+
+    @property
+    def stats(self) -> SourceStats: ...
+
+    def close(self) -> None: ...

@@ -6,7 +6,8 @@
 - ``signals.py``: SIGINT / SIGTERM end the loop cleanly.
 """
 
-from .cameras import CameraPairSource, CameraStats, Pairer, SourceStats
+from ..frames import CameraStats, SourceStats
+from .cameras import CameraPairSource, Pairer
 from .replay import RecordingSource, paced
 from .signals import StopOnSignals
 

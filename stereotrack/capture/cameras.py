@@ -20,41 +20,14 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from ..camera import Rig
 from ..errors import StereotrackError
-from ..frames import FramePair
+from ..frames import CameraStats, FramePair, SourceStats
 from .devices import CaptureSettings, VideoDevice, describe, open_device
-
-
-@dataclass(frozen=True)
-class CameraStats:
-    name: str
-    device: str
-    frames: int  # frames grabbed
-    fps: float  # measured over the last two seconds
-    dropped: int  # frames lost because the consumer was slow (bounded queue)
-    unpaired: int  # frames with no partner within the pairing tolerance
-
-
-@dataclass(frozen=True)
-class SourceStats:
-    cameras: tuple[CameraStats, ...]
-    pairs: int  # pairs handed to the consumer
-    pairs_dropped: int  # pairs dropped because the consumer was slow
-
-    def line(self) -> str:
-        """One status line: frames/s per camera, dropped and unpaired counts."""
-        fps = " ".join(f"{c.name} {c.fps:4.1f} fps" for c in self.cameras)
-        unpaired = "/".join(str(c.unpaired) for c in self.cameras)
-        return f"{fps} | pairs {self.pairs} | dropped {self.pairs_dropped} | unpaired {unpaired}"
-
-
-# --------------------------------------------------------------------------- pairing (pure logic)
 
 
 class Pairer:

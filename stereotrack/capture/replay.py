@@ -9,9 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..console import warn
-from ..frames import FramePair
+from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import Recording, open_recording
-from .cameras import CameraStats, SourceStats
 
 MAX_WAIT = 2.0  # seconds: the longest pause between two frames a paced replay waits out
 

@@ -115,6 +115,8 @@ def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = 
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     import numpy as np
 
     from ..camera import load_rig
@@ -122,9 +124,8 @@ def run(args: argparse.Namespace) -> int:
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
     from ..sinks.recorder import RecordingSink
-    from ..sinks.tracks_csv import TracksCsvSink
-    from .track import make_tracker
 
     specs = camera_specs(args)
     settings = capture_settings(args)
@@ -151,24 +152,13 @@ def run(args: argparse.Namespace) -> int:
 
     # Outputs are checked before anything starts; the tracks file opens last (a temporary name until the end).
     from ..files import check_output
-    from ..sinks.viewer.flags import make_viz_sink
 
     out_csv = check_output(args.out, "--out", "tracks CSV", [args.calib, args.config]) if args.out else None
+    recorder = None
     if args.record:
-        from pathlib import Path
-
         out = Path(args.record)
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             raise StereotrackError(f"--record {out}: exists and is not an empty folder (choose another --record folder)")
-    # without --seconds only Ctrl-C ends the run: a served viewer then stops with it (no second Ctrl-C)
-    viz = make_viz_sink(
-        args, rig, config, recording_name="live", live=True, protect=[args.calib, args.config, out_csv], hold=args.seconds is not None
-    )
-    sinks = [viz] if viz is not None else []
-    if out_csv is not None:
-        sinks.insert(0, TracksCsvSink(out_csv))
-    recorder = None
-    if args.record:
         from ..config import config_to_dict
 
         # the pairs the tracker saw, with the rig and targets in force: a replay is exact
@@ -182,7 +172,19 @@ def run(args: argparse.Namespace) -> int:
             targets=config_to_dict(config),
             extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))},
         )
-        sinks.append(recorder)
+
+    # without --seconds only Ctrl-C ends the run: a served viewer then stops with it (no second Ctrl-C)
+    sinks = open_sinks(
+        args,
+        rig,
+        config,
+        tracks_csv=out_csv,
+        live=True,
+        extra=[recorder] if recorder else [],
+        protect=[args.calib, args.config],
+        hold=args.seconds is not None,
+    )
+    viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
 
     try:
         # queue_size=1: the tracker always gets the newest pair; latency cannot build up

@@ -64,25 +64,16 @@ def with_recording_up(config, recording):
     return replace(config, tracks=replace(config.tracks, up=up_axis(up, f"{recording.folder / 'meta.yaml'}: 'up'")))
 
 
-def make_tracker(method: str, rig, config, keep_rays: bool = False):
-    if method == "baseline":
-        from ..pipeline.baseline import BaselineTracker
-
-        return BaselineTracker(rig, config)
-    from ..console import notice_if_slow
-    from ..pipeline.tracker import Tracker
-
-    with notice_if_slow("compiling the tracker's kernels (first run on this machine only: up to a minute) ..."):
-        return Tracker(rig, config, keep_rays=keep_rays)
-
-
 def track_recording(args, default_out: Path | None = None) -> int:
     """Shared by `track` and `demo`."""
+    from ..capture.replay import RecordingSource
     from ..console import info, warn
     from ..errors import StereotrackError
     from ..files import check_output
+    from ..pipeline.assemble import make_tracker, open_sinks
+    from ..pipeline.run import close_all, run_pipeline
     from ..recording import open_recording, read_truth
-    from ..sinks.tracks_csv import TracksCsvSink, read_tracks
+    from ..sinks.tracks_csv import read_tracks
 
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
@@ -101,23 +92,14 @@ def track_recording(args, default_out: Path | None = None) -> int:
             truth = read_truth(rec.truth_path)
         except StereotrackError as exc:  # scoring is a bonus; never refuse the run for it
             warn(f"not scoring against truth.csv: {exc}")
-    from ..sinks.viewer.flags import make_viz_sink
-
-    viz_sink = make_viz_sink(args, rig, config, truth=truth, protect=[*inputs, out])  # None when no viewer flag is given
+    sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth, protect=inputs)  # a missing viewer or a taken port: refused here
     try:
         tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
-        sinks = [TracksCsvSink(out)]
     except BaseException:
-        if viz_sink is not None:
-            viz_sink.close()
+        close_all(sinks)
         raise
-    if viz_sink is not None:
-        sinks.append(viz_sink)
-    frames = rec.frames(args.start, stop)
-    if args.realtime:
-        from ..capture.replay import paced
-
-        frames = paced(frames, rec.timestamps[args.start : stop])
+    viz_sink = next((s for s in sinks if hasattr(s, "rrd_path")), None)
+    source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop)
     objects_seen = {t.name: 0 for t in config.targets}
 
     class _Counter:
@@ -128,9 +110,10 @@ def track_recording(args, default_out: Path | None = None) -> int:
         def close(self):
             pass
 
-    from ..pipeline.run import run_pipeline
-
-    summary = run_pipeline(frames, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
+    try:
+        summary = run_pipeline(source, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
+    finally:
+        source.close()
     for name, count in objects_seen.items():
         if count == 0:
             warn(

@@ -97,7 +97,7 @@ def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, n
     out = []
     for cam in cameras:
         uv, ok, z = cam.view(X)
-        f_over_z = cam.focal_px / np.maximum(z, 1e-6)
+        f_over_z = cam.apparent_radius(1.0, z)  # pixels per metre of ball at each particle's depth
         out.append((uv, ok, f_over_z))
     return out
 

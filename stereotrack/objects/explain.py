@@ -35,10 +35,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..camera import Camera, triangulate_with_covariance
+from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
-from ..evidence.blobs import Blobs
-from ..results import Object3D
+from ..evidence.gather import CameraEvidence
+from ..results import Object3D, TrackedBalls
 from .discs import RayFit, depth_on_ray, union_mismatch
 from .kernels import blob_signature
 
@@ -117,21 +117,21 @@ def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainS
 
 def explain(
     objects: Sequence[Object3D],
-    cameras: Sequence[Camera],
-    blobs: Sequence[Blobs],
+    views: Sequence[CameraEvidence],
     settings: ExplainSettings,
-    predicted: np.ndarray | None = None,
-    rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
-    occluders: tuple[np.ndarray, np.ndarray] | None = None,
+    predicted: TrackedBalls | None = None,
+    occluders: TrackedBalls | None = None,
 ) -> tuple[list[Object3D], np.ndarray]:
-    """Keep the objects that explain blobs.
+    """Keep the objects that explain blobs of this target's evidence (``views``, one per camera).
 
-    ``predicted``: where tracks of this colour expect balls; ``rays``: the
-    blobs' viewing rays per camera (origins, directions), if already known;
-    ``occluders``: tracked balls of other colours (centres B x 3, radii B),
-    whose discs hide part of a ball behind them. Returns (kept objects, index
-    of the kept object each input object went into, or -1 if it was dropped).
+    ``predicted``: the tracked balls of this colour (where tracks expect
+    balls); ``occluders``: tracked balls of other colours, whose discs hide
+    part of a ball behind them. Returns (kept objects, index of the kept
+    object each input object went into, or -1 if it was dropped).
     """
+    cameras, blobs, rays = [v.camera for v in views], [v.blobs for v in views], [v.rays for v in views]
+    predicted = predicted.centres if predicted is not None else None
+    occluders = (occluders.centres, occluders.radii) if occluders is not None else None
     into = np.full(len(objects), -1)
     if not objects:
         return [], into
@@ -169,8 +169,6 @@ def explain(
         into[members[i]] = n
     out = [merged[i] for i in kept]
     if settings.refine:
-        if rays is None:
-            rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
         out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted)
     return out, into
@@ -219,8 +217,8 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
     for j, cam in enumerate(cameras):
         uv, front, z = cam.view(positions)
         ouv, ofront, oz = cam.view(centres)
-        r = cam.focal_px * radius / np.maximum(z, 1e-6)
-        orad = cam.focal_px * radii / np.maximum(oz, 1e-6)
+        r = cam.apparent_radius(radius, z)
+        orad = cam.apparent_radius(radii, oz)
         apart = np.linalg.norm(uv[:, None] - ouv[None], axis=2)
         out[:, j] = (front[:, None] & ofront[None] & (oz[None] < z[:, None]) & (apart < r[:, None] + orad[None])).any(axis=1)
     return out
@@ -301,7 +299,7 @@ def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, pr
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
     z = float(cameras[j].depth(point[None])[0])
-    across = (CENTROID_SIGMA_PX * z / cameras[j].K[0, 0]) ** 2
+    across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
     cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     return replace(obj, position=point, covariance=cov)
 
@@ -321,5 +319,5 @@ def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, s
         others = np.array([positions[k] for k in mates])
         mismatch += union_mismatch(cameras[j], blobs[j], int(blob_ids[i, j]), candidates, others, settings.radius)
         z = float(cameras[j].depth((o + depth * d)[None])[0])
-        area += np.pi * (cameras[j].K[0, 0] * settings.radius / max(z, 0.05)) ** 2
+        area += np.pi * cameras[j].apparent_radius(settings.radius, max(z, 0.05)) ** 2
     return depth_on_ray(mismatch, depths, depth, np.sqrt(along), DISC_FIT_TOLERANCE * area)

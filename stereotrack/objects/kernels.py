@@ -1,5 +1,4 @@
-"""Compiled loops of the object stage: weighted EM and the ISODATA rules (``clustering.py``), blob look-ups
-and disc fits (``explain.py``, ``discs.py``).
+"""Compiled loops of the object stage: weighted EM and the ISODATA rules, blob look-ups and disc fits.
 
 See ``stereotrack/kernels.py`` for how kernels are compiled, cached and warmed up.
 """

@@ -1,5 +1,4 @@
-"""Compiled loops of the particle stage: window counts and the fused likelihood, occlusion and exclusion,
-systematic resampling, ray crossings (``likelihood.py``, ``population.py``, ``proposal.py``).
+"""Compiled loops of the particle stage: window counts, likelihood, occlusion, exclusion, resampling, ray crossings.
 
 See ``stereotrack/kernels.py`` for how kernels are compiled, cached and warmed up.
 """

@@ -285,3 +285,22 @@ def test_video_files_play_at_their_rate_and_end_the_source(tmp_path):
 def test_fewer_than_two_cameras_or_a_rig_of_another_size_is_refused():
     with pytest.raises(StereotrackError, match="at least two cameras"):
         CameraPairSource(["sim:dots"])
+
+
+def test_every_source_has_what_the_source_protocol_promises(tmp_path):
+    from stereotrack.frames import Source
+
+    folder = tmp_path / "rec"
+    with RecordingWriter(folder, ["cam0", "cam1"], (64, 48), 30.0) as w:
+        for i in range(3):
+            w.write([np.zeros((48, 64, 3), np.uint8)] * 2, [i / 30.0] * 2)
+    replay = RecordingSource(folder)
+    live = CameraPairSource(["sim:dots", "sim:dots"], settings=CaptureSettings(width=64, height=48, fps=30.0))
+    try:
+        for source in (replay, live):
+            for name in [n for n in Source.__annotations__] + ["stats", "close", "__iter__"]:
+                assert hasattr(source, name), (type(source).__name__, name)
+        assert replay.n_frames == 3 and len(list(replay)) == 3 and live.n_frames is None
+    finally:
+        replay.close()
+        live.close()
