@@ -85,7 +85,7 @@ def test_an_unreadable_file_is_one_line(work, tmp_path):
             text=True,
             timeout=60,
             user="nobody",
-            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"),
+            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1", NUMBA_CACHE_DIR=str(work.parent / "numba")),  # nobody cannot write ours
         )
         assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "permission denied" in r.stderr.lower(), r.stderr
     else:
