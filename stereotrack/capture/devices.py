@@ -337,7 +337,7 @@ def _parse_sim(spec: str, slot: int) -> dict[str, Any]:
             kwargs[name] = cast(value)
         except ValueError:
             raise StereotrackError(f"{spec!r}: option {key} needs a {cast.__name__}, got {value!r}") from None
-    limits = {"view": (0, 63), "jitter": (0, 1), "drop": (0, 0.999), "stop_after": (0, 1e6), "seed": (0, 2**32 - 1), "loop": (0.001, 3600)}
+    limits = {"view": (0, 63), "jitter": (0, 1), "drop": (0, 0.999), "stop_after": (0, 1e6), "seed": (0, 2**32 - 1), "loop": (0.001, 10)}
     option = {name: key for key, (name, _) in casts.items()}
     for name, (lo, hi) in limits.items():
         value = kwargs.get(name)

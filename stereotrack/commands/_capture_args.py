@@ -20,7 +20,7 @@ camera devices (--cam0 SPEC, --cam1 SPEC, ... up to --cam3):
                         default the slot), jitter=SECONDS (timestamp jitter s.d.,
                         0.002), drop=P (lost-frame probability, 0.01),
                         stop=SECONDS (hang after that long, like an unplugged
-                        webcam), seed=N, loop=SECONDS (render that long up
+                        webcam), seed=N, loop=SECONDS (at most 10; render that long up
                         front and loop it: a camera that costs no CPU)
 """
 
