@@ -94,8 +94,16 @@ def quiet_native_libraries() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one command; the exit status: 0, 2 (a user error, one line), 3 (a bug), 130 (Ctrl-C)."""
-    rc = _main(sys.argv[1:] if argv is None else list(argv))
+    from .capture.signals import act_on_pending, install
+
+    install()  # first: SIGINT/SIGTERM handled explicitly from here on, even if a script started us with SIGINT ignored
+    try:
+        act_on_pending()  # a signal while the package loaded (stereotrack/__init__.py) stops us here
+        rc = _main(argv)
+    except KeyboardInterrupt as exc:  # a stop signal outside a capture/tracking loop (see capture/signals.py)
+        if getattr(exc, "debug", False):
+            raise
+        rc = interrupted(exc)
     if argv is None:  # the program itself (not a test calling main): its exit is bounded too
         end_within(EXIT_SECONDS, rc)
     return rc
@@ -120,7 +128,13 @@ def end_within(seconds: float, rc: int) -> None:
     timer.start()
 
 
-def _main(argv: list[str]) -> int:
+def interrupted(exc: BaseException) -> int:
+    """One line for a stop signal; the exit status says which (128 + signal number)."""
+    print(f"interrupted by {getattr(exc, 'signal_name', 'SIGINT')}", file=sys.stderr)
+    return getattr(exc, "exit_status", 130)
+
+
+def _main(argv: list[str] | None) -> int:
     from .errors import StereotrackError
 
     quiet_native_libraries()
@@ -137,11 +151,9 @@ def _main(argv: list[str]) -> int:
             raise
         print(f"error: {one_line(exc)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        if debug:
-            raise
-        print("interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        exc.debug = debug
+        raise
     except Exception as exc:  # a bug, not a user error: still one line unless --debug
         if debug:
             raise

@@ -37,7 +37,7 @@ class CameraStats:
     device: str
     frames: int  # frames grabbed
     fps: float  # measured over the last two seconds
-    dropped: int  # frames lost because the consumer was slow (bounded queue)
+    dropped: int  # pairs with a frame of this camera the consumer skipped (it was busy)
     unpaired: int  # frames with no partner within the pairing tolerance
 
 
@@ -45,13 +45,17 @@ class CameraStats:
 class SourceStats:
     cameras: tuple[CameraStats, ...]
     pairs: int  # pairs handed to the consumer
-    pairs_dropped: int  # pairs dropped because the consumer was slow
+    pairs_dropped: int  # pairs the consumer skipped because it was busy (or, replaying, was late for)
+    formed: int = 0  # live cameras: pairs formed (each went to the recorder, if any)
+    not_recorded: int = 0  # live cameras: pairs lost because the recorder's queue was full (disk too slow)
 
     def line(self) -> str:
-        """One status line: frames/s per camera, dropped and unpaired counts."""
+        """One status line: frames/s per camera, pair counts, unpaired frames."""
         fps = " ".join(f"{c.name} {c.fps:4.1f} fps" for c in self.cameras)
         unpaired = "/".join(str(c.unpaired) for c in self.cameras)
-        return f"{fps} | pairs {self.pairs} | dropped {self.pairs_dropped} | unpaired {unpaired}"
+        lost = f" | not recorded {self.not_recorded}" if self.not_recorded else ""
+        pairs = max(self.formed, self.pairs + self.pairs_dropped)
+        return f"{fps} | pairs {pairs} | skipped {self.pairs_dropped}{lost} | unpaired {unpaired}"
 
 
 # --------------------------------------------------------------------------- pairing (pure logic)

@@ -33,9 +33,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--start", type=number(0, integer=True), default=0, help="first frame (default 0)")
     p.add_argument("--frames", type=number(1, integer=True), help="track at most this many frames")
-    p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="play the recording at its recorded pace, as a live camera would (late frames are skipped and counted)",
+    )
+    p.add_argument(
+        "--all-frames",
+        action="store_true",
+        help="a `live --record` recording: track every recorded frame, not only those the live run tracked",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    from ..sinks.viewer.flags import add_viz_arguments
+    from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(p)
 
@@ -65,7 +74,19 @@ def with_recording_up(config, recording):
 
 
 def track_recording(args, default_out: Path | None = None) -> int:
-    """Shared by `track` and `demo`."""
+    """Shared by `track` and `demo`. A signal stops it cleanly: outputs complete up to the last frame tracked."""
+    from ..capture.signals import Interrupted, StopOnSignals
+
+    with StopOnSignals() as stopper:
+        status = _track(args, default_out, stopper)
+    if stopper.signal_name:
+        raise Interrupted(stopper.signal_name)  # the outputs are closed; the command line says "interrupted"
+    return status
+
+
+def _track(args, default_out: Path | None, stopper) -> int:
+    import numpy as np
+
     from ..capture.replay import RecordingSource
     from ..console import info, warn
     from ..errors import StereotrackError
@@ -83,6 +104,11 @@ def track_recording(args, default_out: Path | None = None) -> int:
     if args.start >= rec.n_frames:
         raise StereotrackError(f"--start {args.start} is outside the recording's {rec.n_frames} frames")
     stop = rec.n_frames if args.frames is None else min(rec.n_frames, args.start + args.frames)
+    wanted = np.arange(args.start, stop)
+    if rec.tracked_frames is not None and not getattr(args, "all_frames", False):
+        # a live run's recording: replay exactly the frames the live tracker had time for
+        wanted = np.unique(rec.tracked_frames[(rec.tracked_frames >= args.start) & (rec.tracked_frames < stop)])
+        info(f"replaying the {len(wanted)} frames the live run tracked, of {stop - args.start} recorded (--all-frames tracks every frame)")
     # Every output is checked before anything is written; none may be one of the run's inputs.
     inputs = [*rec.own_files, rec.targets_path, args.config, args.calib]
     out = check_output(args.out if args.out is not None else (default_out or rec.folder / "tracks.csv"), "--out", "tracks CSV", inputs)
@@ -99,41 +125,58 @@ def track_recording(args, default_out: Path | None = None) -> int:
         close_all(sinks)
         raise
     viz_sink = next((s for s in sinks if hasattr(s, "rrd_path")), None)
-    source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop)
+    only = None if len(wanted) == stop - args.start else wanted
+    source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop, only=only)
     objects_seen = {t.name: 0 for t in config.targets}
+    tracked: list[int] = []
 
     class _Counter:
         def write(self, result):
+            tracked.append(result.frame.index)
             for o in result.objects:
                 objects_seen[o.target] += 1
 
         def close(self):
             pass
 
+    def until_stopped(pairs):
+        for pair in pairs:
+            if stopper.requested:
+                break
+            yield pair
+
     try:
-        summary = run_pipeline(source, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
+        summary = run_pipeline(until_stopped(source), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted))
     finally:
-        source.close()
+        source.close()  # the readers stop before anything else
+    skipped = source.stats.pairs_dropped
     for name, count in objects_seen.items():
-        if count == 0:
+        if count == 0 and not stopper.requested:
             warn(
                 f"target {name!r} matched nothing in the whole recording: check its HSV range ('stereotrack colour learn') and the lighting"
             )
+    not_tracked = []
+    if skipped:
+        not_tracked.append(f"{skipped} skipped because the tracker ran late (--realtime)")
+    if stopper.requested:
+        not_tracked.append(f"stopped by {stopper.signal_name}")
+    untracked = f" ({'; '.join(not_tracked)})" if not_tracked else ""
+    of = f" of {len(wanted)}" if summary.frames != len(wanted) else ""  # the summary says so when frames were left out
     info(
-        f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
-        f"tracker step median {summary.median_step_ms:.1f} ms): {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
+        f"tracked {summary.frames}{of} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
+        f"tracker step median {summary.median_step_ms:.1f} ms){untracked}: {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
     )
     info(f"tracks written to {out}")
-    if truth is not None and summary.frames:
+    if truth is not None and tracked:
         from ..evaluate import evaluate
 
         try:
             tracks = read_tracks(out)
-            frames_range = list(range(args.start, args.start + summary.frames))
-            truth_in = truth[(truth[:, 0] >= args.start) & (truth[:, 0] < args.start + summary.frames)]
-            ev = evaluate(tracks, truth_in, frames=frames_range)
+            truth_in = truth[np.isin(truth[:, 0], tracked)]
+            ev = evaluate(tracks, truth_in, frames=tracked)
+            scope = f" (scored over the {len(tracked)} frames tracked)" if len(tracked) < stop - args.start else ""
             info(
-                f"against the recording's truth.csv: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
+                f"against the recording's truth.csv{scope}: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
                 f"recall {ev.recall:.3f}, precision {ev.precision:.3f}, mean 3D error {ev.mean_error_mm:.1f} mm"
             )
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it

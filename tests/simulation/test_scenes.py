@@ -209,7 +209,26 @@ balls:
 
 def test_synth_command_writes_a_readable_recording(tmp_path, capsys):
     out = tmp_path / "rec"
-    assert main(["synth", "pendulum4", "--out", str(out), "--frames", "3", "--width", "320", "--height", "240", "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "pendulum4",
+                "--out",
+                str(out),
+                "--frames",
+                "3",
+                "--width",
+                "320",
+                "--height",
+                "240",
+                "--no-progress",
+                "--codec",
+                "ffv1",
+            ]
+        )
+        == 0
+    )
     rec = open_recording(out)
     assert rec.n_frames == 3 and rec.rig is not None and rec.rig.world == "custom"
     assert rec.meta["up"] == [0.0, 0.0, 1.0] and rec.targets_path.is_file()
