@@ -157,6 +157,19 @@ def read_columns(
     return data
 
 
+def numeric_table(lines: list[str], width: int) -> np.ndarray | None:
+    """Lines of ``width`` comma-separated numbers as an array, or None (the fast path: no Python loop per line)."""
+    if not lines:
+        return np.zeros((0, width))
+    fields = ",".join(lines).split(",")
+    if len(fields) != len(lines) * width:
+        return None
+    try:
+        return np.asarray(fields, dtype=float).reshape(len(lines), width)
+    except ValueError:
+        return None
+
+
 def _first_unreadable_line(body: str, columns: Sequence[str]) -> str:
     """Where numpy gave up: the first line without ``columns`` numbers (only run on the error path)."""
     for i, line in enumerate(body.splitlines(), start=2):

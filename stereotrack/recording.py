@@ -29,9 +29,9 @@ import numpy as np
 import yaml
 
 from .camera import Rig, load_rig, save_rig
-from .console import warn
+from .console import quiet_native_stderr, warn
 from .errors import StereotrackError
-from .files import MAX_CSV_BYTES, load_yaml, read_columns, read_text
+from .files import MAX_CSV_BYTES, load_yaml, numeric_table, read_columns, read_text
 from .frames import FramePair
 
 CODECS = {"mjpg": ".avi", "ffv1": ".avi"}
@@ -264,7 +264,7 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
         )
     columns = [header.index(f"t_{n}") for n in names]
     for body in (lines[1:], lines[1:-1]):  # every line whole, or all but a last one cut short by a killed writer
-        table = _numeric_table(body, len(header))
+        table = numeric_table(body, len(header))
         if table is not None and np.array_equal(table[:, 0], np.arange(len(table))) and (np.abs(table) < MAX_TIMESTAMP).all():
             return _checked_order(path, table[:, columns], names)
     # Something is wrong: find the first bad line, one by one.
@@ -291,19 +291,6 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
             )
         rows.append(times)
     return _checked_order(path, np.asarray(rows, dtype=float).reshape(-1, len(names)), names)
-
-
-def _numeric_table(lines: list[str], width: int) -> np.ndarray | None:
-    """Lines of ``width`` comma-separated numbers as an array, or None (the fast path: no Python loop per line)."""
-    if not lines:
-        return np.zeros((0, width))
-    fields = ",".join(lines).split(",")
-    if len(fields) != len(lines) * width:
-        return None
-    try:
-        return np.asarray(fields, dtype=float).reshape(len(lines), width)
-    except ValueError:
-        return None
 
 
 def _checked_order(path: Path, timestamps: np.ndarray, names: list[str]) -> np.ndarray:
@@ -532,7 +519,8 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
     # What the videos hold: size and (where the container knows it) length.
     sizes, counts = [], []
     for p in paths:
-        cap = cv2.VideoCapture(str(p))
+        with quiet_native_stderr():  # OpenCV's AVI reader prints its own complaint about a broken file
+            cap = cv2.VideoCapture(str(p))
         if not cap.isOpened():
             raise StereotrackError(f"{p}: OpenCV cannot open this video (not a video file, or cut short)")
         sizes.append((int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))))

@@ -48,7 +48,7 @@ FILES = {
         ["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--out", "out/rig.yaml", "--no-progress"],
         ("out/*",),
     ),
-    "video": ("rec/cam0.mkv", "bytes", TRACK, ("out.csv",)),
+    "video": ("rec/cam0.avi", "bytes", TRACK, ("out.csv",)),
 }
 
 

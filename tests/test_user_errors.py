@@ -144,7 +144,7 @@ def test_a_yaml_alias_bomb_is_refused_at_once(work):
 
 
 @pytest.mark.parametrize(
-    "flag, rel", [("--out", "rec/frames.csv"), ("--rrd", "rec/cam0.mkv"), ("--out", "rec/meta.yaml"), ("--out", "rec/config.yaml")]
+    "flag, rel", [("--out", "rec/frames.csv"), ("--rrd", "rec/cam0.avi"), ("--out", "rec/meta.yaml"), ("--out", "rec/config.yaml")]
 )
 def test_outputs_never_replace_a_recordings_own_files(work, flag, rel):
     refused(work, [*TRACK, flag, rel], flag, rel)
@@ -253,7 +253,7 @@ def test_targets_outside_the_recording_are_refused(work, value):
 
 
 def test_absolute_video_paths_are_refused(work):
-    edit_yaml(work / "rec/meta.yaml", lambda m: m["videos"].__setitem__("cam0", str(work / "rec" / "cam0.mkv")))
+    edit_yaml(work / "rec/meta.yaml", lambda m: m["videos"].__setitem__("cam0", str(work / "rec" / "cam0.avi")))
     refused(work, TRACK, "videos.cam0", "outside the recording")
 
 

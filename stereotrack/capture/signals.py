@@ -84,6 +84,11 @@ def uninstall() -> None:
     _State.installed = False
 
 
+def stop_requested() -> bool:
+    """Whether a stop signal arrived inside any active StopOnSignals block (the run is ending on it)."""
+    return any(scope.requested for scope in _State.scopes)
+
+
 class StopOnSignals:
     """While active, the first SIGINT/SIGTERM asks the loop to stop instead of interrupting it.
 

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from ...camera import Rig
+from ...capture.signals import StopOnSignals, stop_requested
 from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
@@ -465,11 +466,12 @@ class RerunSink:
                 self._worker_error = self._worker_error or TimeoutError("the logging thread is stuck")
             self._worker.join(FLUSH_SECONDS)
             flush_bounded(self.rec, self._outlets)
-            if self.outputs.serve and self.outputs.hold and failing is None and self.web_url:
+            if self.outputs.serve and self.outputs.hold and failing is None and self.web_url and not stop_requested():
                 info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
                 try:
-                    while all(p.poll() is None for p in self._children if p.args and "--serve-web" in p.args):
-                        time.sleep(0.5)
+                    with StopOnSignals() as held:  # one Ctrl-C (or SIGTERM) ends the hold
+                        while not held.requested and all(p.poll() is None for p in self._children if "--serve-web" in p.args):
+                            time.sleep(0.2)
                 except KeyboardInterrupt:
                     pass
         finally:
