@@ -383,7 +383,8 @@ def write_text_atomic(path: str | Path, text: str, flag: str = "output") -> None
 
 
 def check_output_folder(path: str | Path, flag: str, overwrite: bool = False) -> Path:
-    """A recording folder to create: not a file or a link; an existing one must be empty unless ``overwrite``."""
+    """A recording folder to create: not a file or a link; an existing one must be empty, or with ``overwrite``
+    an earlier recording (it holds meta.yaml): --overwrite never empties a folder of other files."""
     if not str(path).strip():
         raise StereotrackError(f"{flag}: give a folder name")
     path = Path(path)
@@ -393,6 +394,10 @@ def check_output_folder(path: str | Path, flag: str, overwrite: bool = False) ->
         raise StereotrackError(f"{flag} {path}: exists and is not a folder; choose another name")
     if path.is_dir() and any(path.iterdir()) and not overwrite:
         raise StereotrackError(f"{flag} {path}: folder exists and is not empty (choose another {flag} or add --overwrite)")
+    if path.is_dir() and any(path.iterdir()) and not (path / "meta.yaml").is_file():
+        raise StereotrackError(
+            f"{flag} {path}: folder is not a recording (no meta.yaml); --overwrite replaces only a recording, choose another {flag}"
+        )
     _check_writable(path / "x", flag)
     return path
 

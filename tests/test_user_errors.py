@@ -17,6 +17,8 @@ import pytest
 import yaml
 from fuzzing import build_fixture, check, make_workspace, run_cli
 
+from stereotrack.recording import open_recording
+
 ALIAS_BOMB = (
     "[" + ", ".join(["&a [x,x,x,x,x,x,x,x,x]"] + [f"&{c} [" + ",".join([f"*{p}"] * 9) + "]" for p, c in zip("abcdefgh", "bcdefghi")]) + "]"
 )
@@ -148,6 +150,21 @@ def test_a_yaml_alias_bomb_is_refused_at_once(work):
 )
 def test_outputs_never_replace_a_recordings_own_files(work, flag, rel):
     refused(work, [*TRACK, flag, rel], flag, rel)
+
+
+@pytest.mark.parametrize("command", ["synth", "record"])
+def test_overwrite_never_empties_a_folder_that_is_not_a_recording(work, command):
+    (work / "docs/sub").mkdir(parents=True)
+    (work / "docs/thesis.txt").write_text("a user's file\n")
+    source = ["synth", "pendulum4"] if command == "synth" else ["record", "--cam0", "sim:dots", "--cam1", "sim:dots", "--seconds", "1"]
+    refused(work, [*source, "--out", "docs", "--overwrite"], "--out docs", "not a recording")
+    assert (work / "docs/thesis.txt").read_text() == "a user's file\n" and (work / "docs/sub").is_dir()
+
+
+def test_overwrite_replaces_an_earlier_recording(work):
+    outcome = run_cli(["synth", "pendulum4", "--frames", "2", "--width", "64", "--height", "48", "--out", "rec", "--overwrite"], work)
+    check(outcome, ("rec/*",))
+    assert outcome.rc == 0 and open_recording(work / "rec").n_frames == 2
 
 
 def test_a_failing_track_leaves_the_previous_tracks_file(work):

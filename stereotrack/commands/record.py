@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="mjpg (default): the JPEGs an MJPG camera sends, stored as they are (other frames encoded at quality 95); "
         "ffv1: lossless, about 20x larger and too slow for 720p",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier recording at --out (never a folder of other files)")
     add_camera_arguments(parser)
 
 

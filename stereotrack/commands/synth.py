@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="mjpg",
         help="video codec: mjpg (default: JPEG quality 95, below the sensor noise, 7x smaller than ffv1) or ffv1 (lossless)",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier recording at --out (never a folder of other files)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
