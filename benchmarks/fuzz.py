@@ -45,6 +45,10 @@ def main() -> int:
     properties += [
         (f"options: {c}", test_fuzz.test_any_option_value_exits_0_or_one_line, {"command": c}, f"options {c}") for c in test_fuzz.OPTIONS
     ]
+    properties += [
+        (f"output: {c}", test_fuzz.test_any_output_path_harms_no_user_file, {"command": c}, f"output {c}")
+        for c in test_fuzz.OUTPUT_COMMANDS
+    ]
     properties += [("options: sim camera spec", test_fuzz.test_any_simulated_camera_spec_exits_0_or_one_line, {}, "sim camera")]
     failures = []
     t0 = time.monotonic()

@@ -152,6 +152,17 @@ OPTIONS = {
         },
         ("new/*",),
     ),
+    "live": (
+        ["live", "--cam0", "sim:dots", "--cam1", "sim:dots", "--seconds", "0.3", "--quiet", "--out", "out.csv", "--rrd", "out.rrd"],
+        {
+            "--seconds": small_seconds,
+            "--stall-timeout": small_seconds,
+            "--viz-every": option_values,
+            "--viz-image-scale": option_values,
+            "--viz-trail": option_values,
+        },
+        ("out.csv", "out.rrd"),
+    ),
     "cameras": (["cameras", "--cam0", "sim:dots", "--cam1", "sim:dots", "--seconds", "0.3"], {"--seconds": small_seconds}, ()),
     "bench": (["bench", "--quick"], {"--frames": st.sampled_from(["0", "-1", "10", "nan", "inf", "1e9", "abc", str(10**9)])}, ()),
 }
@@ -184,5 +195,60 @@ def test_any_simulated_camera_spec_exits_0_or_one_line(fixture, options):
     work = make_workspace(fixture)
     try:
         check(run_cli(["record", "--cam0", spec, "--cam1", "sim:dots", "--out", "new", "--seconds", "0.3"], work, "sim camera"), ("new/*",))
+    finally:
+        shutil.rmtree(work.parent, ignore_errors=True)
+
+
+# command -> (argv before its output flag's value, the user files it may change when it succeeds besides the output)
+OUTPUT_COMMANDS = {
+    "track --out": (["track", "rec", "--quiet", "--out"], ()),
+    "track --rrd": (["track", "rec", "--quiet", "--frames", "2", "--out", "o.csv", "--rrd"], ("o.csv",)),
+    "synth --out": (["synth", "pendulum4", "--no-progress", "--frames", "1", "--width", "64", "--height", "48", "--out"], ()),
+    "record --out": (["record", "--cam0", "sim:dots", "--cam1", "sim:dots", "--seconds", "0.3", "--out"], ()),
+    "board --out": (["board", "board.yaml", "--dpi", "60", "--out"], ()),
+    "calibrate --out": (["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--no-progress", "--out"], ()),
+    "colour learn --config": (["colour", "learn", "rec", "--name", "pink", "--roi", ROI, "--config"], ()),
+}
+# Where an output may point: a recording's own files, a user's files, folders, a link, inputs, nonsense, new places.
+OUTPUT_PATHS = [
+    *("rec/frames.csv", "rec/meta.yaml", "rec/cam0.avi", "rec/calib.yaml", "rec/truth.csv", "rec/config.yaml", "rec/tracks.csv"),
+    *("rec", ".", "left", "left/left01.jpg", "docs", "docs/thesis.txt", "notes.txt", "link.txt", "dangling.csv"),
+    *("calib.yaml", "config.yaml", "truth.csv", "tracks.csv", "board.yaml", "chess.yaml"),
+    *("", " ", "/proc/nope/out", "new/deeper/out.csv", "new.png", "new.yaml", "out.rrd"),
+]
+FOLDER_PATHS = ["rec", ".", "left", "docs", "docs/sub", "notes.txt", "link.txt", "rec/frames.csv", "", "/proc/nope/out", "new/deeper"]
+# What a successful run may replace when the output names it: an earlier output of the command's kind.
+REPLACEABLE = {
+    "track --out": {"rec/tracks.csv", "tracks.csv"},
+    "colour learn --config": {"rec/config.yaml", "config.yaml"},
+    "synth --out": {"rec"},  # with --overwrite: an earlier recording
+    "record --out": {"rec"},
+}
+
+
+@pytest.mark.parametrize("command", list(OUTPUT_COMMANDS))
+@fuzz_settings
+@given(data=st.data())
+def test_any_output_path_harms_no_user_file(fixture, command, data):
+    """An output named anywhere: a new place or an earlier output of its kind is written; anything else is refused
+    in one line and left as it was (a recording's files, a user's files and folders, a link, the run's inputs)."""
+    base, others = OUTPUT_COMMANDS[command]
+    folder = command in ("synth --out", "record --out")
+    target = data.draw(st.sampled_from(FOLDER_PATHS if folder else OUTPUT_PATHS), label="output")
+    argv = [*base, target]
+    if folder and data.draw(st.booleans(), label="--overwrite"):
+        argv.append("--overwrite")
+    work = make_workspace(fixture)
+    try:
+        (work / "docs/sub").mkdir(parents=True)
+        (work / "docs/thesis.txt").write_text("a user's file\n")
+        (work / "notes.txt").write_text("a user's notes\n")
+        (work / "link.txt").symlink_to("notes.txt")
+        (work / "dangling.csv").symlink_to("nowhere.csv")
+        path = work / target
+        existing = os.path.lexists(path) and not (path.is_dir() and not any(path.iterdir())) if target.strip() else True
+        may_replace = not existing or target in REPLACEABLE.get(command, ())
+        outputs = (*others, target, f"{target}/*") if may_replace else others
+        check(run_cli(argv, work, f"output {command}"), outputs)
     finally:
         shutil.rmtree(work.parent, ignore_errors=True)

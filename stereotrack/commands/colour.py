@@ -73,7 +73,7 @@ def run_learn(args) -> int:
         raise StereotrackError(f"--frame {args.frame} is outside the recording's {rec.n_frames} frames")
     pair = next(rec.frames(args.frame, args.frame + 1))
     image = pair.images[names.index(cam)]
-    if args.config:
+    if args.config is not None:  # an empty --config is refused below, not taken as the default
         path = Path(args.config)
     elif rec.targets_path is not None:
         path = rec.targets_path
@@ -87,7 +87,7 @@ def run_learn(args) -> int:
     t = learned.target
     targets = tuple(t if o.name == t.name else o for o in config.targets) if t.name in old else (*config.targets, t)
     save_config(replace(config, targets=targets), path)
-    if not args.config and rec.targets_path is None:
+    if args.config is None and rec.targets_path is None:
         meta = dict(rec.meta)
         meta["targets"] = path.name
         write_text_atomic(rec.folder / "meta.yaml", dump_yaml(meta))
