@@ -167,6 +167,10 @@ def test_overwrite_replaces_an_earlier_recording(work):
     assert outcome.rc == 0 and open_recording(work / "rec").n_frames == 2
 
 
+def test_a_recording_that_got_no_pair_is_one_line(work):
+    refused(work, ["record", "--cam0", "sim:dots", "--cam1", "sim:dots", "--fps", "1", "--seconds", "0.3", "--out", "new"], "no frame pair")
+
+
 def test_a_failing_track_leaves_the_previous_tracks_file(work):
     before = (work / "rec/tracks.csv").read_bytes()
     (work / "dir.rrd").mkdir()

@@ -111,10 +111,10 @@ def run(args: argparse.Namespace) -> int:
     if error is not None:  # one line: the error says what was kept
         kept = f"{sink.count} pairs kept in {out}" if sink.count else "nothing was recorded"
         raise StereotrackError(f"{error}; recording stopped, {kept}")
-    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "done"
-    info(f"{how}: {sink.count} pairs in {out} ({stats.line()})")
-    if sink.count == 0 and not stopper.signal_name:
+    if sink.count == 0 and not stopper.signal_name:  # before the status line: an error is one line
         raise StereotrackError(
             "no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)"
         )
+    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "done"
+    info(f"{how}: {sink.count} pairs in {out} ({stats.line()})")
     return 0
