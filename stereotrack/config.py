@@ -19,10 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from .errors import StereotrackError
-from .files import load_yaml
+from .files import dump_yaml, load_yaml, write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -54,7 +52,7 @@ def setting(default: Any, doc: str, *, low: float | None = None, high: float | N
 class TrackerSettings:
     """The particle tracker (paper sections III-B to III-F)."""
 
-    particles: int = setting(2000, "N, total particles per target", low=1, high=10_000_000)
+    particles: int = setting(2000, "N, total particles per target", low=1, high=1_000_000)  # 10^7 took 34 s a frame: no run ends
     alpha: float = setting(0.2, "share of abductive (importance-sampled) particles, 0..1", low=0.0, high=1.0)
     window: int = setting(5, "colour window W in pixels (odd)", low=1, high=101)
     likelihood: str = setting(
@@ -236,13 +234,17 @@ def _section(path, name: str, cls, data: Any):
     return cls(**kwargs)
 
 
+def _whole(x: Any) -> bool:
+    """A whole number as YAML gives it: an int, or a float like 150.0 (not a bool, not 150.5, not inf)."""
+    return not isinstance(x, bool) and (isinstance(x, int) or (isinstance(x, float) and math.isfinite(x) and x == int(x)))
+
+
 def _hsv(path, key: str, value: Any) -> tuple[int, int, int]:
     if not (isinstance(value, (list, tuple)) and len(value) == 3):
-        raise _err(path, key, f"expected [H, S, V], got {value!r}")
-    try:
-        h, s, v = (int(x) for x in value)
-    except (TypeError, ValueError):
-        raise _err(path, key, f"expected three whole numbers, got {value!r}") from None
+        raise _err(path, key, f"expected [H, S, V], got {value!r:.80}")
+    if not all(_whole(x) for x in value):
+        raise _err(path, key, f"expected three whole numbers, got {value!r:.80}")
+    h, s, v = (int(x) for x in value)
     if not (0 <= h <= 179 and 0 <= s <= 255 and 0 <= v <= 255):
         raise _err(path, key, f"OpenCV HSV needs H in 0..179 and S, V in 0..255, got {value!r}")
     return (h, s, v)
@@ -262,18 +264,18 @@ def target_from_dict(path, i: int, d: Any) -> Target:
     hi = _hsv(path, f"{where}.hsv_max", d["hsv_max"])
     if lo[1] > hi[1] or lo[2] > hi[2]:
         raise _err(path, where, f"hsv_min {list(lo)} must not exceed hsv_max {list(hi)} in S and V (only H may wrap)")
-    try:
-        radius = float(d.get("radius", Target.radius))
-    except (TypeError, ValueError):
-        raise _err(path, f"{where}.radius", f"expected metres, got {d.get('radius')!r}") from None
-    if not 0.001 <= radius <= 1.0:
-        raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius}")
+    radius = d.get("radius", Target.radius)
+    if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not 0.001 <= radius <= 1.0:
+        raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius!r:.80}")
+    name = d["name"]
+    if isinstance(name, bool) or not isinstance(name, (str, int)) or not str(name).strip() or any(c in str(name) for c in ",\n\r"):
+        raise _err(path, f"{where}.name", f"expected a name without commas (it becomes a column of tracks.csv), got {name!r:.80}")
     model = d.get("colour_model")
     if model is not None:
         if not isinstance(model, str) or not model:
-            raise _err(path, f"{where}.colour_model", f"expected the path of a colour model file, got {model!r}")
+            raise _err(path, f"{where}.colour_model", f"expected the path of a colour model file, got {model!r:.80}")
         model = str(Path(path).parent / model) if not Path(model).is_absolute() else model
-    return Target(name=str(d["name"]), hsv_min=lo, hsv_max=hi, radius=radius, colour_model=model)
+    return Target(name=str(name), hsv_min=lo, hsv_max=hi, radius=float(radius), colour_model=model)
 
 
 def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
@@ -344,7 +346,7 @@ def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, 
 
 
 def save_config(config: Config, path: str | Path) -> None:
-    Path(path).write_text(yaml.safe_dump(config_to_dict(config), sort_keys=False, default_flow_style=None))
+    write_text_atomic(path, dump_yaml(config_to_dict(config)))
 
 
 if __name__ == "__main__":  # python -m stereotrack.config: the README's settings table

@@ -93,6 +93,11 @@ def leave_to_parent() -> None:
     _State.installed = True  # install() (and so StopOnSignals) sees them handled and changes nothing
 
 
+def stop_requested() -> bool:
+    """Whether a stop signal arrived inside any active StopOnSignals block (the run is ending on it)."""
+    return any(scope.requested for scope in _State.scopes)
+
+
 class StopOnSignals:
     """While active, the first SIGINT/SIGTERM asks the loop to stop instead of interrupting it.
 

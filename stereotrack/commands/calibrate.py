@@ -33,6 +33,8 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--board", default="calib/board.yaml", metavar="YAML", help="board description (default calib/board.yaml)")
     parser.add_argument(
         "--out", required=True, metavar="YAML", help="calibration file to write (e.g. calib/desk.yaml); the report goes beside it"
@@ -41,11 +43,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src.add_argument("--images", nargs="+", metavar="DIR", help="one image folder or quoted glob pattern per camera")
     src.add_argument("--recording", metavar="DIR", help="a recording folder")
     parser.add_argument("--names", nargs="+", metavar="NAME", help="camera names (default cam0 cam1 ..., or the recording's)")
-    parser.add_argument("--max-views", type=int, default=30, help="recording / live: stop after this many views (default 30)")
     parser.add_argument(
-        "--every", type=int, default=None, metavar="N", help="recording: look at every N-th frame pair (default: about 300 pairs in all)"
+        "--max-views", type=number(5, 10_000, integer=True), default=30, help="recording / live: stop after this many views (default 30)"
     )
-    parser.add_argument("--seconds", type=float, default=None, help="live: stop after this many seconds")
+    parser.add_argument(
+        "--every",
+        type=number(1, 1_000_000, integer=True),
+        default=None,
+        metavar="N",
+        help="recording: look at every N-th frame pair (default: about 300 pairs in all)",
+    )
+    parser.add_argument("--seconds", type=number(above=0, hi=86_400), default=None, help="live: stop after this many seconds")
     m = parser.add_argument_group("lens model and solving")
     m.add_argument("--fix-aspect", action="store_true", help="square pixels: fx = fy")
     m.add_argument("--zero-tangent", action="store_true", help="no tangential distortion")
@@ -54,13 +62,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     m.add_argument("--refine", action="store_true", help="after the stereo step, refine intrinsics and extrinsics jointly (two cameras)")
     m.add_argument(
         "--subpix",
-        type=int,
+        type=number(1, 50, integer=True),
         default=None,
         metavar="PX",
         help="chessboard corner refinement half-window in pixels (default: a quarter of the corner spacing)",
     )
     parser.add_argument(
-        "--drop-worst", type=int, default=0, metavar="N", help="drop the N worst views (named in the report) and calibrate again"
+        "--drop-worst",
+        type=number(0, 1000, integer=True),
+        default=0,
+        metavar="N",
+        help="drop the N worst views (named in the report) and calibrate again",
     )
     parser.add_argument(
         "--world-view",
@@ -78,17 +90,18 @@ def run(args: argparse.Namespace) -> int:
     from ..calibration.views import views_from_frames, views_from_images
     from ..camera import save_rig
     from ..errors import StereotrackError
+    from ..files import check_output
 
     live = getattr(args, "cam0", None) is not None
     chosen = sum([bool(args.images), bool(args.recording), live])
     if chosen != 1:
         raise StereotrackError("give exactly one source of views: --images DIR0 DIR1, --recording DIR, or --cam0 SPEC --cam1 SPEC")
-    if args.max_views < 5:
-        raise StereotrackError(f"--max-views must be at least 5, got {args.max_views}")
-    if args.drop_worst < 0:
-        raise StereotrackError(f"--drop-worst must be 0 or more, got {args.drop_worst}")
     if not str(args.out).endswith((".yaml", ".yml")):
         raise StereotrackError(f"--out must be a .yaml file, got {args.out}")
+    if args.names and (len(set(args.names)) != len(args.names) or any(not n.strip() or "," in n for n in args.names)):
+        raise StereotrackError(f"--names {' '.join(args.names)}: expected distinct camera names without commas")
+    check_output(args.out, "--out", "calibration file", [args.board])
+    check_output(report_path(args.out), "--out (its report)", "calibration report", [args.board])
     board = load_board(args.board)
     progress = not args.no_progress
 

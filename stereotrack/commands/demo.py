@@ -27,9 +27,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from ..console import info
+    from ..files import check_output
     from ..simulation.write import ensure_demo_recording
     from .track import track_recording
 
+    check_output(args.out, "--out", "tracks CSV")  # before the first run spends a minute rendering the recording
+    if args.rrd is not None:
+        check_output(args.rrd, "--rrd", "rerun recording", [args.out])
     folder = ensure_demo_recording(Path.cwd())
     info(f"demo recording: {folder}")
     args.recording = str(folder)

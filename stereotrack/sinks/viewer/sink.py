@@ -42,17 +42,17 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ...camera import Rig
+from ...capture.signals import StopOnSignals, stop_requested
 from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
 from .columns import ColumnWriter, Pending, SeriesBuffer, Trail
-from .process import _free_port, _start_viewer_process, _wait_for_port, normalise_connect_url
+from .process import FLUSH_SECONDS, finish_outlets, flush_bounded, open_outlets
 from .style import (
     ABDUCTIVE,
     APPLICATION_ID,
@@ -166,7 +166,12 @@ class RerunSink:
         if recording_name:
             self.rec.send_recording_name(recording_name)
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
-        self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
+        self._outlets = open_outlets(rr, outputs)  # refuses a missing viewer or a taken port before anything is written
+        self._children = self._outlets.children
+        self.web_url = self._outlets.web_url
+        if self.web_url:
+            info(f"web viewer: {self.web_url}")
+        self.rec.set_sinks(*self._outlets.sinks, default_blueprint=self.blueprint)
         self._log_static()
         self.columns = ColumnWriter(
             rr, self.rec, rig, config.tracker.window, self.style, settings.trail_seconds, self._truth, self._truth_labels
@@ -180,43 +185,6 @@ class RerunSink:
         self._worker.start()
 
     # ----------------------------------------------------------------- setup
-
-    def _open_sinks(self, out: VizOutputs) -> list[Any]:
-        rr = self.rr
-        sinks: list[Any] = []
-        if out.rrd is not None:
-            path = Path(out.rrd)
-            if path.is_dir():
-                raise StereotrackError(f"--rrd {path}: is a folder; give a file name such as {path / 'run.rrd'}")
-            path.parent.mkdir(parents=True, exist_ok=True)
-            sinks.append(rr.FileSink(str(path)))
-        if out.connect:
-            sinks.append(rr.GrpcSink(normalise_connect_url(out.connect)))
-        if out.spawn:
-            port = _free_port()
-            self._children.append(
-                _start_viewer_process(
-                    ["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True
-                )
-            )
-            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{port}/proxy"))
-        if out.serve:
-            proc = _start_viewer_process(
-                ["--serve-web", "--bind", out.bind, "--port", str(out.grpc_port), "--web-viewer-port", str(out.web_port)],
-                out.bind,
-                out.grpc_port,
-                "the web viewer server",
-                False,
-            )
-            self._children.append(proc)
-            _wait_for_port(out.bind, out.web_port, proc, 10.0)
-            host = "127.0.0.1" if out.bind in ("0.0.0.0", "::") else out.bind
-            sinks.append(rr.GrpcSink(f"rerun+http://{host}:{out.grpc_port}/proxy"))
-            from urllib.parse import quote
-
-            self.web_url = f"http://{host}:{out.web_port}/?url={quote(f'rerun+http://{host}:{out.grpc_port}/proxy', safe='')}"
-            info(f"web viewer: {self.web_url}")
-        return sinks
 
     def _log_static(self) -> None:
         rr, rec = self.rr, self.rec
@@ -490,31 +458,29 @@ class RerunSink:
     # ----------------------------------------------------------------- end
 
     def close(self) -> None:
-        """Flush and finish the file (an .rrd with its footer), also after Ctrl-C; stop child viewers."""
+        """Finish the log, also after Ctrl-C, in bounded time: the .rrd gets its footer and its name, a viewer
+        what it takes within FLUSH_SECONDS; our viewer servers stop. A run that failed leaves no .rrd."""
         if self._closed:
             return
         self._closed = True
-        interrupted = sys.exc_info()[0] is not None
+        failing = sys.exc_info()[0]
         try:
-            self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
-            self._worker.join()
-            self.rec.flush()
-            if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:
+            try:
+                self._queue.put(None, timeout=FLUSH_SECONDS)  # after the frames already queued: all of them reach the file
+            except queue.Full:
+                self._worker_error = self._worker_error or TimeoutError("the logging thread is stuck")
+            self._worker.join(FLUSH_SECONDS)
+            flush_bounded(self.rec, self._outlets)
+            if self.outputs.serve and self.outputs.hold and failing is None and self.web_url and not stop_requested():
                 info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
                 try:
-                    while all(p.poll() is None for p in self._children if p.args and "--serve-web" in p.args):
-                        time.sleep(0.5)
+                    with StopOnSignals() as held:  # one Ctrl-C (or SIGTERM) ends the hold
+                        while not held.requested and all(p.poll() is None for p in self._children if "--serve-web" in p.args):
+                            time.sleep(0.2)
                 except KeyboardInterrupt:
                     pass
         finally:
-            self.rec.disconnect()
-            for proc in self._children:
-                if "--serve-web" in proc.args and proc.poll() is None:
-                    proc.terminate()
-                    try:
-                        proc.wait(5)
-                    except subprocess.TimeoutExpired:
-                        proc.kill()
+            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or issubclass(failing, KeyboardInterrupt))
         if self._worker_error is not None:
             error = self._worker_error
             raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error
