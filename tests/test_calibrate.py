@@ -80,6 +80,26 @@ def test_real_stereo_baseline_and_right_focal():
     assert cal.rig.quality["views_used"] == 13 and set(cal.rig.quality["per_camera_rms_px"]) == {"cam0", "cam1"}
 
 
+LENS_MODELS = {
+    "standard": CalibrationOptions(),
+    "rational": CalibrationOptions(rational=True),
+    "fix-k3": CalibrationOptions(fix_k3=True),
+    "zero-tangent": CalibrationOptions(zero_tangent=True),
+    "fix-aspect": CalibrationOptions(fix_aspect=True),
+}
+
+
+@pytest.mark.parametrize("model", list(LENS_MODELS))
+def test_every_lens_model_on_the_real_pairs(real_views, model):
+    # Caltech's own result: 99.81 mm / 30 mm = 3.327 square lengths; the stereo step once ignored
+    # the rational model's k4..k6 (baseline 11-18 squares, RMS 77-84 px)
+    cal = calibrate(real_views, OPENCV_BOARD, LENS_MODELS[model])
+    assert 3.32 <= cal.rig.baseline() <= 3.35, model
+    assert cal.report["rms_px"] < 0.3 and cal.report["pairs"][0]["rms_px"] < 0.3
+    assert cal.report["verdict"] == "good", cal.report["reasons"]
+    assert np.any(cal.rig[0].dist[5:8]) == (model == "rational")
+
+
 # --------------------------------------------------------------------------- rendered boards, known rig
 
 

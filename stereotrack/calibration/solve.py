@@ -207,7 +207,7 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
     for p, c in edges:
         vs = shared[(min(p, c), max(p, c))]
         relabelled = _make_labels_consistent(board, dets, vs, p, c, intr)
-        rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC)
+        rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
         if refine:
             f = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_USE_EXTRINSIC_GUESS | flags
             rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, f, R, T)

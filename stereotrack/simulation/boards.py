@@ -57,14 +57,16 @@ def random_board_poses(
     fill: tuple[float, float] = (0.35, 0.75),
     max_tilt_deg: float = 40.0,
     max_spin_deg: float = 25.0,
+    min_tilt_deg: float = 0.0,
     margin_px: float = 8.0,
     cameras: Sequence[int] | None = None,
 ) -> list[BoardPose]:
     """``n`` board poses fully visible in the given cameras (default: all).
 
     ``fill`` is the range of the board's width as a share of the image width;
-    the board faces the cameras, tilted up to ``max_tilt_deg`` and turned in
-    its plane up to ``max_spin_deg``.
+    the board faces the cameras, tilted by ``min_tilt_deg`` to ``max_tilt_deg``
+    (tilted views pin down the focal length) and turned in its plane up to
+    ``max_spin_deg``.
     """
     cams = [rig.cameras[i] for i in (range(len(rig)) if cameras is None else cameras)]
     centre = np.mean([c.centre for c in cams], axis=0)
@@ -91,7 +93,7 @@ def random_board_poses(
         base = np.column_stack([right, down, forward])
         tilt_axis = np.array([math.cos(a := rng.uniform(0, 2 * math.pi)), math.sin(a), 0.0])
         spin = _rotation([0, 0, 1], math.radians(rng.uniform(-max_spin_deg, max_spin_deg)))
-        tilt = _rotation(tilt_axis, math.radians(rng.uniform(0, max_tilt_deg)))
+        tilt = _rotation(tilt_axis, math.radians(rng.uniform(min_tilt_deg, max_tilt_deg)))
         R = base @ tilt @ spin
         pose = BoardPose(R, target - R @ mid)
         pts = pose.to_world(outline)
