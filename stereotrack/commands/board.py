@@ -28,6 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("board", metavar="BOARD_YAML", help="board description (e.g. calib/board.yaml)")
     parser.add_argument("--out", default="board.png", metavar="PNG", help="image to write (default board.png)")
     parser.add_argument("--dpi", type=float, default=300.0, help="printer resolution in dots per inch (default 300)")
+    parser.add_argument(
+        "--paper", choices=["A4", "letter", "A3"], help="refuse a board that does not fit on this paper (default: say which fits)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         raise StereotrackError(f"--out must be a .png file (it stores the dpi for printing), got {args.out}")
     board = load_board(args.board)
     page = printable(board, args.dpi)
+    paper_line = _check_paper(board, page, args.paper, args.dpi)
     write_png_with_dpi(args.out, page.image, args.dpi)
 
     # Self-check: read the file back and find every corner, at a camera-like resolution.
@@ -59,6 +63,34 @@ def run(args: argparse.Namespace) -> int:
         raise StereotrackError(
             f"self-check failed: only {found} of {board.n_corners} corners were found in {args.out}; use a larger --dpi or larger squares"
         )
+    print(paper_line)
     print(f"self-check: all {found} corners found in the written image")
     print("print at 100% scale (no 'fit to page') and check a few squares with a ruler")
     return 0
+
+
+def _check_paper(board, page, paper: str | None, dpi: float) -> str:
+    """Which paper the page fits (and how to turn it); refuse when it does not fit the paper asked for."""
+    from ..calibration.boards import PAPER_MM, largest_square_for, page_mm, paper_fit
+    from ..console import warn
+    from ..errors import StereotrackError
+
+    w, h = page_mm(page)
+    fits = {name: paper_fit((w, h), name) for name in PAPER_MM}
+    if paper is not None and not fits[paper]:
+        smaller = largest_square_for(board, paper, dpi)
+        other = next((name for name, how in fits.items() if how), None)
+        raise StereotrackError(
+            f"the board ({board.describe()}) needs a page of {w:.0f} x {h:.0f} mm, which does not fit on {paper}"
+            + (f" (squares of {1000 * smaller:.0f} mm or less do)" if smaller else "")
+            + (f"; it fits on {other}" if other else "")
+        )
+    if paper is not None:
+        return f"paper: fits on {paper} in {fits[paper]}" + (" (turn the page: print landscape)" if fits[paper] == "landscape" else "")
+    usable = [f"{name} ({how})" for name, how in fits.items() if how]
+    if not usable:
+        warn(f"the page is {w:.0f} x {h:.0f} mm: larger than A3; print it in parts or use smaller squares")
+        return "paper: larger than A3"
+    if not fits["A4"] and not fits["letter"]:
+        warn(f"the page is {w:.0f} x {h:.0f} mm: it does not fit on A4 or letter; print on {usable[0]} or use smaller squares")
+    return "paper: fits on " + ", ".join(usable)
