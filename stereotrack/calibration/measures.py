@@ -10,6 +10,7 @@ import numpy as np
 
 from ..camera import Camera
 from .boards import MIN_CORNERS, Board, Detection
+from .bundle import LensModel
 
 
 @dataclass(frozen=True)
@@ -18,9 +19,12 @@ class CalibrationOptions:
     zero_tangent: bool = False  # no tangential distortion (p1 = p2 = 0)
     fix_k3: bool = False  # no 6th-order radial term (steadier with few views)
     rational: bool = False  # 8-coefficient rational model (wide-angle lenses)
-    refine: bool = False  # after the stereo step, refine intrinsics and extrinsics jointly
+    joint: bool = True  # refine every camera and board pose at once (bundle.py); False: the pairwise starts only, to compare
     drop_worst: int = 0  # drop this many worst views and calibrate again
     world_view: str | None = None  # name of a view whose board pose is the world (z up); None: first camera
+
+    def lens_model(self) -> LensModel:
+        return LensModel(rational=self.rational, fix_k3=self.fix_k3, zero_tangent=self.zero_tangent, fix_aspect=self.fix_aspect)
 
     def flags(self) -> int:
         f = 0

@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 
 from ..camera import Camera, Rig
-from ..console import warn
 from ..errors import StereotrackError
+from . import bundle
 from .boards import MIN_CORNERS, Board, Detection, board_to_dict, diagnose, flipped
 from .measures import CalibrationOptions, Intrinsics, _angle_deg, _common, _points, _pose
 from .report import _report
@@ -32,6 +32,7 @@ class Calibration:
     rig: Rig
     report: dict[str, Any]
     views: ViewSet  # the views used (after any dropped)
+    fit: ViewFit  # per view: detections, reprojected corners, board pose
 
 
 def calibrate_intrinsics(
@@ -186,44 +187,46 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
     flags = options.flags()
     dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
 
+    # Starts: each camera alone, then each camera's pose through the pairs that share most views.
     intr: dict[int, Intrinsics] = {}
     for c in range(n_cams):
         vs = views.seen_by(c)
         rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
         intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
-
-    shared = {}
-    for i in range(n_cams):
-        for j in range(i + 1, n_cams):
-            shared[(i, j)] = _shared_views(views, board, i, j)
-    edges = _spanning_tree(n_cams, shared, names)
-
+    shared = {(i, j): _shared_views(views, board, i, j) for i in range(n_cams) for j in range(i + 1, n_cams)}
     R_world = {0: np.eye(3)}
     t_world = {0: np.zeros(3)}
-    pairs = []
-    refine = options.refine and n_cams == 2
-    if options.refine and not refine:
-        warn("--refine is done for two cameras only; with more, each pair keeps the per-camera intrinsics")
-    for p, c in edges:
+    relabelled = 0
+    for p, c in _spanning_tree(n_cams, shared, names):
         vs = shared[(min(p, c), max(p, c))]
-        relabelled = _make_labels_consistent(board, dets, vs, p, c, intr)
-        rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
-        if refine:
-            f = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_USE_EXTRINSIC_GUESS | flags
-            rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, f, R, T)
-            intr[p] = replace(intr[p], K=Kp, dist=dp)
-            intr[c] = replace(intr[c], K=Kc, dist=dc)
+        relabelled += _make_labels_consistent(board, dets, vs, p, c, intr)
+        _, _, _, _, _, R, T, _ = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
         R_world[c] = R @ R_world[p]
         t_world[c] = R @ t_world[p] + T
-        pairs.append({"p": p, "c": c, "views": vs, "rms": rms, "per_view": per_view.max(axis=1), "relabelled": relabelled})
+    relabelled += _labels_agree_with_poses(board, dets, intr, R_world)
+    start = _start(board, dets, intr, R_world, t_world, options.lens_model())
 
-    cams = [Camera(names[c], tuple(views.image_sizes[c]), intr[c].K, intr[c].dist, R_world[c], t_world[c]) for c in range(n_cams)]
+    # Then all of it at once, unless asked for the starts only (to compare).
+    fit = bundle.refine(start.corners, n_cams, views.n_views, options.lens_model(), *start.x) if options.joint else start.as_result()
+    cams = []
+    for c in range(n_cams):
+        fx, fy, cx, cy = fit.intrinsics[c, :4]
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        R = cv2.Rodrigues(fit.cam_poses[c, :3])[0]
+        cams.append(
+            Camera(
+                names[c], tuple(views.image_sizes[c]), K, fit.intrinsics[c, 4 : 4 + options.lens_model().n_dist], R, fit.cam_poses[c, 3:]
+            )
+        )
+    boards_R = np.array([cv2.Rodrigues(b[:3])[0] for b in fit.board_poses])
+    boards_t = fit.board_poses[:, 3:].copy()
     world = names[0]
     if options.world_view is not None:
-        cams = _world_from_view(views, board, dets, cams, options.world_view)
+        cams, boards_R, boards_t = _world_from_view(views, board, dets, cams, boards_R, boards_t, options.world_view)
         world = "custom"
     rig = Rig(tuple(cams), world=world)
-    report = _report(views, board, dets, rig, intr, pairs, options)
+    view_fit = _view_fit(board, dets, fit, boards_R, boards_t)
+    report = _report(views, board, view_fit, rig, fit, intr, relabelled, options)
     quality = {
         "rms_px": report["rms_px"],
         "per_camera_rms_px": {n: report["cameras"][n]["rms_px"] for n in names},
@@ -231,11 +234,103 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
         "views_used": views.n_views,
         "board": board_to_dict(board),
         "verdict": report["verdict"],
+        "method": "joint" if options.joint else "pairwise",
+        "baselines": [
+            {"cameras": p["cameras"], "m": p["baseline_m"], "sd_m": p["baseline_sd_m"]} for p in report["pairs"] if "baseline_sd_m" in p
+        ],
     }
-    return Calibration(Rig(rig.cameras, world=world, quality=quality), report, views)
+    return Calibration(Rig(rig.cameras, world=world, quality=quality), report, views, view_fit)
 
 
-def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], view_name: str) -> list[Camera]:
+def _labels_agree_with_poses(board: Board, dets, intr: dict[int, Intrinsics], R_world: dict[int, np.ndarray]) -> int:
+    """Chessboards numbered from the opposite end in one camera of a view, also between cameras that
+    are not linked directly: the labelling whose board rotation agrees with the view's first camera wins."""
+    if board.type != "chessboard":
+        return 0
+    changed = 0
+    for row in dets:
+        seen = [c for c, d in enumerate(row) if d is not None]
+        if len(seen) < 2:
+            continue
+        ref = seen[0]
+        R_ref = R_world[ref].T @ _pose(board, row[ref], intr[ref].K, intr[ref].dist)[0]  # board -> world
+        for c in seen[1:]:
+            want = R_world[c] @ R_ref
+            as_is = _angle_deg(_pose(board, row[c], intr[c].K, intr[c].dist)[0] @ want.T)
+            turned = _angle_deg(_pose(board, flipped(board, row[c]), intr[c].K, intr[c].dist)[0] @ want.T)
+            if turned < as_is:
+                row[c] = flipped(board, row[c])
+                changed += 1
+    return changed
+
+
+@dataclass(frozen=True, eq=False)
+class _Start:
+    """The joint fit's starting point: per-camera intrinsics, chained poses, board poses from one camera each."""
+
+    corners: bundle.Corners
+    x: tuple[np.ndarray, np.ndarray, np.ndarray]  # intrinsics (cameras x 12), camera poses, board poses
+    model: bundle.LensModel
+
+    def as_result(self) -> bundle.BundleResult:
+        """The starts as they are (no joint fit), with their residuals, to compare."""
+        problem = bundle.Problem(self.corners, len(self.x[0]), len(self.x[2]), self.model, self.x[0])
+        residuals = problem.residuals(problem.pack(*self.x)).reshape(-1, 2)
+        return bundle.BundleResult(*self.x, residuals, None, problem)
+
+
+def _start(board: Board, dets, intr: dict[int, Intrinsics], R_world, t_world, model: bundle.LensModel) -> _Start:
+    n_cams = len(intr)
+    intrinsics = np.zeros((n_cams, bundle.N_INTR))
+    for c in range(n_cams):
+        K, d = intr[c].K, intr[c].dist
+        intrinsics[c, :4] = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+        intrinsics[c, 4 : 4 + min(8, len(d))] = d[:8]  # k1 k2 p1 p2 k3 (k4 k5 k6)
+    cam_poses = np.array([np.concatenate([cv2.Rodrigues(R_world[c])[0].ravel(), t_world[c]]) for c in range(n_cams)])
+    board_poses, view, cam, obj, px = [], [], [], [], []
+    points = board.object_points()
+    for v, row in enumerate(dets):
+        ref = next(c for c, d in enumerate(row) if d is not None)  # board -> world through the first camera that saw it
+        Rb, tb = _pose(board, row[ref], intr[ref].K, intr[ref].dist)
+        R = R_world[ref].T @ Rb
+        board_poses.append(np.concatenate([cv2.Rodrigues(R)[0].ravel(), R_world[ref].T @ (tb - t_world[ref])]))
+        for c, d in enumerate(row):
+            if d is not None:
+                view.append(np.full(len(d), v))
+                cam.append(np.full(len(d), c))
+                obj.append(points[d.ids])
+                px.append(d.corners)
+    corners = bundle.Corners(np.concatenate(view), np.concatenate(cam), np.concatenate(obj), np.concatenate(px))
+    return _Start(corners, (intrinsics, cam_poses, np.array(board_poses)), model)
+
+
+@dataclass(frozen=True, eq=False)
+class ViewFit:
+    """What the fit says about every view: the detections it used (chessboards relabelled to agree
+    between cameras), where it puts each detected corner, the residuals and the board poses."""
+
+    detections: tuple[tuple[Detection | None, ...], ...]
+    reprojected: tuple[tuple[np.ndarray | None, ...], ...]  # pixels, one row per detected corner
+    board_R: np.ndarray  # (views, 3, 3) board -> world, in the rig's world
+    board_t: np.ndarray  # (views, 3)
+
+    def residuals(self, v: int, c: int) -> np.ndarray | None:
+        """Per corner: reprojected minus detected pixels (n x 2), or None if camera c did not see view v."""
+        d = self.detections[v][c]
+        return None if d is None else self.reprojected[v][c] - d.corners
+
+
+def _view_fit(board: Board, dets, fit: bundle.BundleResult, boards_R: np.ndarray, boards_t: np.ndarray) -> ViewFit:
+    corners = fit.problem.corners
+    reprojected = [[None] * len(row) for row in dets]
+    for v, c, rows in fit.problem.blocks:
+        reprojected[v][c] = corners.px[rows] + fit.residuals[rows]
+    return ViewFit(tuple(map(tuple, dets)), tuple(map(tuple, reprojected)), boards_R, boards_t)
+
+
+def _world_from_view(
+    views: ViewSet, board: Board, dets, cams: list[Camera], boards_R: np.ndarray, boards_t: np.ndarray, view_name: str
+) -> tuple[list[Camera], np.ndarray, np.ndarray]:
     """Re-express the rig in the frame of the board as seen in one view: origin at the board's
     outer corner, x along its rows, z up out of the printed face (towards the cameras)."""
     if view_name not in views.view_names:
@@ -250,14 +345,8 @@ def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], vie
             f"--world-view {view_name!r}: the board is seen by {len(seen)} camera(s) in that view; choose a view seen by two or more"
             + (f", e.g. {', '.join(both[:5])}" if both else "")
         )
-    c0 = seen[0]  # the first camera that sees the board in that view
-    Rb, tb = _pose(board, dets[v][c0], cams[c0].K, cams[c0].dist)  # board -> camera c0
     flip = np.diag([1.0, -1.0, -1.0])  # board z points into the print; the world's z points out of it
-    R_bw = cams[c0].R.T @ Rb @ flip  # world' -> old world rotation
-    t_bw = cams[c0].R.T @ (tb - cams[c0].t)  # world' origin in the old world
-    out = []
-    for cam in cams:
-        R = cam.R @ R_bw
-        t = cam.R @ t_bw + cam.t
-        out.append(replace(cam, R=R, t=t))
-    return out
+    R_bw = boards_R[v] @ flip  # world' -> old world rotation: the fitted board pose of that view
+    t_bw = boards_t[v]  # world' origin in the old world
+    out = [replace(cam, R=cam.R @ R_bw, t=cam.R @ t_bw + cam.t) for cam in cams]
+    return out, np.einsum("ji,vjk->vik", R_bw, boards_R), (boards_t - t_bw) @ R_bw

@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+from ...console import info
 from ...errors import StereotrackError
 
 
@@ -98,3 +99,44 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+def open_outputs(rr, out) -> tuple[list, list[subprocess.Popen], str | None]:
+    """rerun sinks for a ``VizOutputs`` (file, spawned viewer, remote viewer, served web viewer):
+    (sinks, child processes started, the web viewer's URL if served)."""
+    sinks: list = []
+    children: list[subprocess.Popen] = []
+    web_url = None
+    if out.rrd is not None:
+        path = Path(out.rrd)
+        if path.is_dir():
+            raise StereotrackError(f"--rrd {path}: is a folder; give a file name such as {path / 'run.rrd'}")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        sinks.append(rr.FileSink(str(path)))
+    if out.connect:
+        sinks.append(rr.GrpcSink(normalise_connect_url(out.connect)))
+    if out.spawn:
+        port = _free_port()
+        children.append(
+            _start_viewer_process(
+                ["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True
+            )
+        )
+        sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{port}/proxy"))
+    if out.serve:
+        proc = _start_viewer_process(
+            ["--serve-web", "--bind", out.bind, "--port", str(out.grpc_port), "--web-viewer-port", str(out.web_port)],
+            out.bind,
+            out.grpc_port,
+            "the web viewer server",
+            False,
+        )
+        children.append(proc)
+        _wait_for_port(out.bind, out.web_port, proc, 10.0)
+        host = "127.0.0.1" if out.bind in ("0.0.0.0", "::") else out.bind
+        sinks.append(rr.GrpcSink(f"rerun+http://{host}:{out.grpc_port}/proxy"))
+        from urllib.parse import quote
+
+        web_url = f"http://{host}:{out.web_port}/?url={quote(f'rerun+http://{host}:{out.grpc_port}/proxy', safe='')}"
+        info(f"web viewer: {web_url}")
+    return sinks, children, web_url

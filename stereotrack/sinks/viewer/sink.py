@@ -51,7 +51,7 @@ from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
 from .columns import Pending, SeriesBuffer, Trail
-from .process import _free_port, _start_viewer_process, _wait_for_port, normalise_connect_url
+from .process import open_outputs
 from .style import (
     ABDUCTIVE,
     APPLICATION_ID,
@@ -187,40 +187,8 @@ class RerunSink:
     # ----------------------------------------------------------------- setup
 
     def _open_sinks(self, out: VizOutputs) -> list[Any]:
-        rr = self.rr
-        sinks: list[Any] = []
-        if out.rrd is not None:
-            path = Path(out.rrd)
-            if path.is_dir():
-                raise StereotrackError(f"--rrd {path}: is a folder; give a file name such as {path / 'run.rrd'}")
-            path.parent.mkdir(parents=True, exist_ok=True)
-            sinks.append(rr.FileSink(str(path)))
-        if out.connect:
-            sinks.append(rr.GrpcSink(normalise_connect_url(out.connect)))
-        if out.spawn:
-            port = _free_port()
-            self._children.append(
-                _start_viewer_process(
-                    ["--port", str(port), "--hide-welcome-screen"], "127.0.0.1", port, "the rerun viewer (needs a display)", True
-                )
-            )
-            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{port}/proxy"))
-        if out.serve:
-            proc = _start_viewer_process(
-                ["--serve-web", "--bind", out.bind, "--port", str(out.grpc_port), "--web-viewer-port", str(out.web_port)],
-                out.bind,
-                out.grpc_port,
-                "the web viewer server",
-                False,
-            )
-            self._children.append(proc)
-            _wait_for_port(out.bind, out.web_port, proc, 10.0)
-            host = "127.0.0.1" if out.bind in ("0.0.0.0", "::") else out.bind
-            sinks.append(rr.GrpcSink(f"rerun+http://{host}:{out.grpc_port}/proxy"))
-            from urllib.parse import quote
-
-            self.web_url = f"http://{host}:{out.web_port}/?url={quote(f'rerun+http://{host}:{out.grpc_port}/proxy', safe='')}"
-            info(f"web viewer: {self.web_url}")
+        sinks, children, self.web_url = open_outputs(self.rr, out)
+        self._children.extend(children)
         return sinks
 
     def _log_static(self) -> None:
