@@ -127,7 +127,17 @@ def solve_all(truth: Rig, views: ViewSet) -> dict[str, tuple[dict[str, float], f
     t = time.perf_counter()
     joint = calibrate(views, BOARD)
     out["joint"] = (rig_errors(truth, joint.rig), time.perf_counter() - t)
-    return out
+    return out, own_uncertainty(joint.report)
+
+
+def own_uncertainty(report: dict) -> dict[str, float]:
+    """The joint fit's own standard deviations (its covariance), worst over cameras / pairs."""
+    cams = report["cameras"].values()
+    return {
+        "focal_pct": max(100 * c["fx_std"] / c["fx"] for c in cams),
+        "centre_px": max(c["centre_std"] for c in cams),
+        "baseline_pct": max(p["baseline_sd_pct"] for p in report["pairs"]),
+    }
 
 
 def rendered_table(seeds: list[int]) -> str:
@@ -136,11 +146,15 @@ def rendered_table(seeds: list[int]) -> str:
         f"| worst baseline, % ({TARGETS['baseline_pct']}) | worst rotation, deg ({TARGETS['rotation_deg']}) | scenes meeting all | time, s |",
         "|---:|---|---:|---:|---:|---:|---:|---:|",
     ]
+    sds = []
     for n_cams in (2, 3):
         results: dict[str, list] = {}
+        own = []
         for seed in seeds:
             truth, views = rendered_scene(n_cams, seed)
-            for method, (errors, seconds) in solve_all(truth, views).items():
+            solved, uncertainty = solve_all(truth, views)
+            own.append(uncertainty)
+            for method, (errors, seconds) in solved.items():
                 results.setdefault(method, []).append((errors, seconds))
             print(f"  {n_cams} cameras, seed {seed}: " + "; ".join(
                 f"{m} " + " ".join(f"{v:.3f}" for v in r[-1][0].values()) for m, r in results.items()), file=sys.stderr, flush=True)  # fmt: skip
@@ -151,6 +165,16 @@ def rendered_table(seeds: list[int]) -> str:
                      for k in TARGETS]  # fmt: skip
             secs = np.array([r[1] for r in rows])
             lines.append(f"| {n_cams} | {method} | " + " | ".join(cells) + f" | {meets} of {len(rows)} | {np.median(secs):.2f} |")
+        sds.append(
+            f"{n_cams} cameras: focal {np.median([u['focal_pct'] for u in own]):.3f} %, centre {np.median([u['centre_px'] for u in own]):.2f} px, "
+            f"baseline {np.median([u['baseline_pct'] for u in own]):.3f} %"
+        )
+    lines.append("")
+    lines.append(
+        "The joint fit's own standard deviations (from its covariance, worst camera or pair, median over the scenes): "
+        + "; ".join(sds)
+        + "."
+    )
     return "\n".join(lines)
 
 
@@ -179,6 +203,65 @@ def real_table() -> str:
     return "\n".join(lines)
 
 
+def solver_table(seed: int) -> str:
+    """scipy's least_squares set up four ways on one 3-camera scene, from the same pairwise start."""
+    from scipy.optimize import least_squares
+    from scipy.sparse import lil_matrix
+    from threadpoolctl import threadpool_limits
+
+    from stereotrack.calibration import bundle, solve
+
+    truth, views = rendered_scene(3, seed)
+    start = solve.starting_point(views, BOARD, CalibrationOptions())  # what the command starts the joint fit from
+    corners, n_cams = start.corners, len(views.camera_names)
+    problem = bundle.Problem(corners, n_cams, views.n_views, start.model, start.x[0])
+    x0 = problem.pack(*start.x)
+    scale = bundle.robust_scale(problem.residuals(x0))
+
+    sparsity = lil_matrix((2 * len(corners.view), problem.n_unknowns), dtype=np.int8)  # a corner depends on its camera and view
+    for v, c, rows in problem.blocks:
+        r = np.column_stack([2 * rows, 2 * rows + 1]).ravel()[:, None]
+        sparsity[r, problem.i_views + 6 * v + np.arange(6)] = 1
+        sparsity[r, c * problem.n_free + np.arange(problem.n_free)] = 1
+        if c > 0:
+            sparsity[r, problem.i_cams + 6 * (c - 1) + np.arange(6)] = 1
+    common = dict(loss="huber", f_scale=scale, method="trf", x_scale="jac")
+    ways = {
+        "exact Jacobian, dense trust region, BLAS on 1 thread (the default)": (
+            lambda: least_squares(problem.residuals, x0, jac=problem.jacobian, tr_solver="exact", **common), 1),
+        "exact Jacobian, dense trust region, BLAS threads as they come": (
+            lambda: least_squares(problem.residuals, x0, jac=problem.jacobian, tr_solver="exact", **common), None),
+        "finite differences over jac_sparsity, lsmr, at most 300 evaluations": (
+            lambda: least_squares(problem.residuals, x0, jac_sparsity=sparsity, tr_solver="lsmr", max_nfev=300, **common), 1),
+        "exact Jacobian, Levenberg-Marquardt (no robust loss)": (
+            lambda: least_squares(problem.residuals, x0, jac=problem.jacobian, method="lm", x_scale="jac"), 1),
+    }  # fmt: skip
+    lines = [
+        f"| least_squares, 3 cameras, seed {seed}, {len(corners.view)} corners, {problem.n_unknowns} unknowns | time, s | evaluations "
+        "| converged | worst focal, % | worst rotation, deg |",
+        "|---|---:|---:|---|---:|---:|",
+    ]
+    for name, (run, threads) in ways.items():
+        with threadpool_limits(threads):
+            t = time.perf_counter()
+            fit = run()
+            seconds = time.perf_counter() - t
+        intrinsics, cam_poses, _ = problem.unpack(fit.x)
+        cams = []
+        for c in range(n_cams):
+            fx, fy, cx, cy = intrinsics[c, :4]
+            K = np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]])
+            cams.append(
+                Camera(
+                    views.camera_names[c], views.image_sizes[c], K, intrinsics[c, 4:9], cv2.Rodrigues(cam_poses[c, :3])[0], cam_poses[c, 3:]
+                )
+            )
+        errors = rig_errors(truth, Rig(tuple(cams)))
+        lines.append(f"| {name} | {seconds:.2f} | {fit.nfev} | {'yes' if fit.status > 0 else 'no'} "
+                     f"| {errors['focal_pct']:.3f} | {errors['rotation_deg']:.3f} |")  # fmt: skip
+    return "\n".join(lines)
+
+
 def parse_seeds(text: str) -> list[int]:
     a, _, b = text.partition("-")
     return list(range(int(a), int(b or a) + 1))
@@ -188,7 +271,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", default="200-209", help="rendered scenes to measure on (default 200-209)")
     parser.add_argument("--write", action="store_true", help="write the tables into README.md between the markers")
+    parser.add_argument("--solvers", type=int, metavar="SEED", help="only compare ways to set up least_squares on this 3-camera scene")
     args = parser.parse_args()
+    if args.solvers is not None:
+        print(solver_table(args.solvers))
+        return
     seeds = parse_seeds(args.seeds)
     text = (
         f"Rendered views, seeds {seeds[0]}-{seeds[-1]} ({len(seeds)} rigs per row), {N_VIEWS} board poses, corner noise "

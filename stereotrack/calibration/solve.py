@@ -181,33 +181,11 @@ def _check_detections(views: ViewSet, board: Board) -> None:
 def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -> Calibration:
     names = views.camera_names
     n_cams = len(names)
-    if n_cams < 2:
-        raise StereotrackError("calibration needs at least 2 cameras")
-    _check_detections(views, board)
-    flags = options.flags()
-    dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
-
-    # Starts: each camera alone, then each camera's pose through the pairs that share most views.
-    intr: dict[int, Intrinsics] = {}
-    for c in range(n_cams):
-        vs = views.seen_by(c)
-        rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
-        intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
-    shared = {(i, j): _shared_views(views, board, i, j) for i in range(n_cams) for j in range(i + 1, n_cams)}
-    R_world = {0: np.eye(3)}
-    t_world = {0: np.zeros(3)}
-    relabelled = 0
-    for p, c in _spanning_tree(n_cams, shared, names):
-        vs = shared[(min(p, c), max(p, c))]
-        relabelled += _make_labels_consistent(board, dets, vs, p, c, intr)
-        _, _, _, _, _, R, T, _ = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
-        R_world[c] = R @ R_world[p]
-        t_world[c] = R @ t_world[p] + T
-    relabelled += _labels_agree_with_poses(board, dets, intr, R_world)
-    start = _start(board, dets, intr, R_world, t_world, options.lens_model())
+    start = starting_point(views, board, options)
+    dets, intr, relabelled = start.detections, start.intrinsics, start.relabelled
 
     # Then all of it at once, unless asked for the starts only (to compare).
-    fit = bundle.refine(start.corners, n_cams, views.n_views, options.lens_model(), *start.x) if options.joint else start.as_result()
+    fit = bundle.refine(start.corners, n_cams, views.n_views, start.model, *start.x) if options.joint else start.as_result()
     cams = []
     for c in range(n_cams):
         fx, fy, cx, cy = fit.intrinsics[c, :4]
@@ -265,12 +243,15 @@ def _labels_agree_with_poses(board: Board, dets, intr: dict[int, Intrinsics], R_
 
 
 @dataclass(frozen=True, eq=False)
-class _Start:
+class Start:
     """The joint fit's starting point: per-camera intrinsics, chained poses, board poses from one camera each."""
 
     corners: bundle.Corners
     x: tuple[np.ndarray, np.ndarray, np.ndarray]  # intrinsics (cameras x 12), camera poses, board poses
     model: bundle.LensModel
+    detections: list[list[Detection | None]]  # chessboards relabelled to agree between cameras
+    intrinsics: dict[int, Intrinsics]  # each camera calibrated alone
+    relabelled: int
 
     def as_result(self) -> bundle.BundleResult:
         """The starts as they are (no joint fit), with their residuals, to compare."""
@@ -279,7 +260,37 @@ class _Start:
         return bundle.BundleResult(*self.x, residuals, None, problem)
 
 
-def _start(board: Board, dets, intr: dict[int, Intrinsics], R_world, t_world, model: bundle.LensModel) -> _Start:
+def starting_point(views: ViewSet, board: Board, options: CalibrationOptions) -> Start:
+    """Each camera alone (``calibrateCamera``), then each camera's pose through the pairs that share most
+    views (``stereoCalibrate``, intrinsics fixed), then every board pose through the first camera that saw it."""
+    names = views.camera_names
+    n_cams = len(names)
+    if n_cams < 2:
+        raise StereotrackError("calibration needs at least 2 cameras")
+    _check_detections(views, board)
+    flags = options.flags()
+    dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
+    intr: dict[int, Intrinsics] = {}
+    for c in range(n_cams):
+        vs = views.seen_by(c)
+        rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
+        intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
+    shared = {(i, j): _shared_views(views, board, i, j) for i in range(n_cams) for j in range(i + 1, n_cams)}
+    R_world = {0: np.eye(3)}
+    t_world = {0: np.zeros(3)}
+    relabelled = 0
+    for p, c in _spanning_tree(n_cams, shared, names):
+        vs = shared[(min(p, c), max(p, c))]
+        relabelled += _make_labels_consistent(board, dets, vs, p, c, intr)
+        _, _, _, _, _, R, T, _ = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
+        R_world[c] = R @ R_world[p]
+        t_world[c] = R @ t_world[p] + T
+    relabelled += _labels_agree_with_poses(board, dets, intr, R_world)
+    corners, x = _starting_unknowns(board, dets, intr, R_world, t_world)
+    return Start(corners, x, options.lens_model(), dets, intr, relabelled)
+
+
+def _starting_unknowns(board: Board, dets, intr: dict[int, Intrinsics], R_world, t_world):
     n_cams = len(intr)
     intrinsics = np.zeros((n_cams, bundle.N_INTR))
     for c in range(n_cams):
@@ -301,7 +312,7 @@ def _start(board: Board, dets, intr: dict[int, Intrinsics], R_world, t_world, mo
                 obj.append(points[d.ids])
                 px.append(d.corners)
     corners = bundle.Corners(np.concatenate(view), np.concatenate(cam), np.concatenate(obj), np.concatenate(px))
-    return _Start(corners, (intrinsics, cam_poses, np.array(board_poses)), model)
+    return corners, (intrinsics, cam_poses, np.array(board_poses))
 
 
 @dataclass(frozen=True, eq=False)

@@ -70,7 +70,7 @@ class CalibrationViewer:
                 if d is not None:
                     self.rec.log(
                         f"views/{cam}/detected",
-                        self.rr.Points2D(d.corners, colors=DETECTED, radii=2.5, class_ids=d.ids),
+                        self.rr.Points2D(d.corners, colors=DETECTED, radii=4.0, class_ids=d.ids),
                         self.rr.AnyValues(view_name=name),
                     )
 
@@ -90,9 +90,9 @@ class CalibrationViewer:
                 e = fit.residuals(v, c)
                 norm = np.linalg.norm(e, axis=1)
                 rec.log(
-                    f"views/{cam}/reprojected", rr.Points2D(fit.reprojected[v][c], colors=FITTED, radii=1.5), rr.AnyValues(residual_px=norm)
+                    f"views/{cam}/reprojected", rr.Points2D(fit.reprojected[v][c], colors=FITTED, radii=2.5), rr.AnyValues(residual_px=norm)
                 )
-                rec.log(f"views/{cam}/residuals", rr.Arrows2D(origins=d.corners, vectors=RESIDUAL_SCALE * e, colors=ARROW, radii=0.6))
+                rec.log(f"views/{cam}/residuals", rr.Arrows2D(origins=d.corners, vectors=RESIDUAL_SCALE * e, colors=ARROW, radii=1.0))
                 rec.log(f"stats/view_rms_px/{cam}", rr.Scalars(float(np.sqrt(np.mean(norm**2)))))
         for c, cam in enumerate(views.camera_names):
             seen = views.seen_by(c)
