@@ -187,8 +187,8 @@ def refine(
 
 
 def _one_thread():
-    """BLAS on one thread for the dense algebra: on a shared 2-core machine a second thread made
-    each SVD 70x slower (10.5 s instead of 0.14 s for 6336 x 183), it is never faster here."""
+    """BLAS on one thread for the dense algebra: on the shared 2-core machine the threads fighting over
+    the cores made a 3-camera solve 6.6x slower (30.1 s against 4.5 s, BENCHMARKS.md)."""
     from threadpoolctl import threadpool_limits
 
     return threadpool_limits(1)
