@@ -37,7 +37,7 @@ def ensure_env() -> None:
     subprocess.check_call([str(PY), "-m", "pip", "install", "--quiet", "--upgrade", "pip"])
     subprocess.check_call([str(PY), "-m", "pip", "install", "--quiet", "-e", f"{ROOT}[test,eval]"])
     print("compiling the tracker's kernels (once per install, about a minute) ...", flush=True)
-    subprocess.check_call([str(PY), "-c", "from stereotrack.kernels import warm_up; warm_up()"])
+    subprocess.check_call([str(PY), "-c", "from stereotrack.pipeline.tracker import warm_up; warm_up()"])
     STAMP.write_text(wanted)
 
 

@@ -36,10 +36,10 @@ from pathlib import Path
 import numpy as np
 
 from stereotrack.camera import Rig
-from stereotrack.commands.bench import _floor
 from stereotrack.config import Config
 from stereotrack.console import Progress
 from stereotrack.frames import FramePair
+from stereotrack.pipeline.bench import floor
 from stereotrack.pipeline.tracker import Tracker
 from stereotrack.simulation.presets import make_preset
 from stereotrack.simulation.render import SceneRenderer
@@ -183,7 +183,7 @@ def run_tracker(
         shown[j] = i
         if time_floor:
             t0 = time.perf_counter()
-            _floor(pair.images, config.targets)
+            floor(pair.images, config.targets)
             floor_ms[j] = 1e3 * (time.perf_counter() - t0)
         res = tracker.step(pair)
         step_ms[j] = res.timings_ms["step"]

@@ -23,15 +23,15 @@ MOVED: dict[str, tuple[str, ...]] = {
     "boards": ("calibration.boards",),
     "boardsynth": ("simulation.boards",),
     "calibrate": ("calibration",),
-    "clustering": ("objects.clustering",),
+    "clustering": ("objects.clustering", "particles.resampling"),
     "colour": ("evidence.colour",),
     "csvfile": ("files",),
     "devices": ("capture.devices",),
     "discs": ("objects.discs",),
     "explain": ("objects.explain",),
-    "likelihood": ("particles.likelihood",),
+    "likelihood": ("particles.likelihoods.colour_window",),
     "mocap": ("simulation.mocap",),
-    "population": ("particles.population",),
+    "population": ("particles.population", "results"),
     "scenes": ("simulation.presets",),
     "sources": ("capture",),
     "synth": ("simulation",),
@@ -40,6 +40,19 @@ MOVED: dict[str, tuple[str, ...]] = {
     "viz": ("sinks.viewer",),
     "yamlfile": ("files",),
 }
+
+# names that left a module that stayed: module -> {name: new module}
+MOVED_NAMES: dict[str, dict[str, str]] = {
+    "recording": {"RecordingSink": "sinks.recorder"},
+}
+
+
+def moved_name(module: str, name: str):
+    """The object an old ``from stereotrack.<module> import <name>`` meant (for that module's ``__getattr__``)."""
+    new = MOVED_NAMES.get(module.partition(".")[2], {}).get(name)
+    if new is None:
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__package__}.{new}"), name)
 
 
 class _OldPaths(importlib.abc.MetaPathFinder, importlib.abc.Loader):

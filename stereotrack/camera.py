@@ -74,6 +74,10 @@ class Camera:
         """Mean focal length in pixels: a ball of radius R at depth Z looks ``focal_px * R / Z`` pixels wide."""
         return 0.5 * float(self.K[0, 0] + self.K[1, 1])
 
+    def apparent_radius(self, radius: float | np.ndarray, depth: float | np.ndarray, min_depth: float = 1e-6) -> np.ndarray:
+        """Pixels a ball of ``radius`` metres spans at ``depth`` (z in this camera's frame): ``focal_px * radius / depth``."""
+        return self.focal_px * radius / np.maximum(depth, min_depth)
+
     @property
     def centre(self) -> np.ndarray:
         """Optical centre in world coordinates."""
@@ -177,6 +181,10 @@ class Rig:
     def project(self, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Project world points into every camera: a list of (pixels, in_front)."""
         return [cam.project(points) for cam in self.cameras]
+
+    def views(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every point in every camera at once: pixels (C x N x 2), in front (C x N), depth (C x N)."""
+        return tuple(np.stack(a) for a in zip(*(cam.view(points) for cam in self.cameras)))
 
     def triangulate(self, pixels: Sequence[np.ndarray | None]) -> np.ndarray:
         """Triangulate one point from one pixel (u, v) per camera; None skips a camera."""

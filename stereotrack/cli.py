@@ -45,6 +45,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .capture.signals import act_on_pending, install
+
+    install()  # first: SIGINT/SIGTERM handled explicitly from here on, even if a script started us with SIGINT ignored
+    try:
+        act_on_pending()  # a signal while the package loaded (stereotrack/__init__.py) stops us here
+        return _main(argv)
+    except KeyboardInterrupt as exc:  # a stop signal outside a capture/tracking loop (see capture/signals.py)
+        if getattr(exc, "debug", False):
+            raise
+        return interrupted(exc)
+
+
+def interrupted(exc: BaseException) -> int:
+    """One line for a stop signal; the exit status says which (128 + signal number)."""
+    print(f"interrupted by {getattr(exc, 'signal_name', 'SIGINT')}", file=sys.stderr)
+    return getattr(exc, "exit_status", 130)
+
+
+def _main(argv: list[str] | None) -> int:
     from .errors import StereotrackError
 
     parser = build_parser()
@@ -57,11 +76,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        if debug:
-            raise
-        print("interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        exc.debug = debug
+        raise
     except Exception as exc:  # a bug, not a user error: still one line unless --debug
         if debug:
             raise

@@ -1,14 +1,20 @@
 """Settings in one typed place: YAML config (formats.md section 4) -> frozen dataclasses.
 
-Every setting has a documented default here; the README's settings table is
-generated from these docstrings' field comments. Unknown keys and values out
-of range are refused with a message naming the file and the key.
+Every setting is declared once, with ``setting(default, doc, low=, high=,
+choices=)``: its default, what it means and the values it accepts side by
+side. The loader refuses unknown keys, wrong types, non-finite numbers and
+values out of range with a message naming the file and the key; the
+README's settings table is printed from the same declarations
+(``python -m stereotrack.config``; a test keeps the README in step). The
+stages take views of these settings (``ClusterSettings.of``,
+``ExplainSettings.of``), so no default is written twice.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,63 +39,116 @@ class Target:
         return self.hsv_min[0] > self.hsv_max[0]
 
 
+def setting(default: Any, doc: str, *, low: float | None = None, high: float | None = None, choices: tuple[str, ...] = ()) -> Any:
+    """A documented setting: its default, what it means, and the values it accepts, side by side.
+
+    The config loader checks values against ``low``/``high`` (inclusive) and
+    ``choices``; the README's settings table is printed from ``doc``
+    (``python -m stereotrack.config``).
+    """
+    return field(default=default, metadata={"doc": doc, "low": low, "high": high, "choices": choices})
+
+
 @dataclass(frozen=True)
 class TrackerSettings:
     """The particle tracker (paper sections III-B to III-F)."""
 
-    particles: int = 2000  # N, total particles per target
-    alpha: float = 0.2  # share of abductive (importance-sampled) particles, 0..1
-    window: int = 5  # colour window W in pixels (odd)
-    motion_sigma: float = 0.02  # random-walk standard deviation per frame, metres
-    d_min: float = 0.2  # nearest depth along a viewing ray for abductive particles, metres
-    d_max: float = 5.0  # farthest depth along a viewing ray, metres
-    blob_method: str = "components"  # "components" (connected components) or "histogram" (paper's axis maxima)
-    min_blob_area: int = 6  # smallest colour blob, pixels
-    depth_from_size: bool = True  # narrow the ray's depth range with the ball's apparent size
-    crossing_share: float = 0.25  # share of the abductive particles placed where blob rays of two cameras cross (the rest along the rays)
-    cluster_min_likelihood: float = 0.05  # particles below this likelihood are not clustered
-    cluster_min_mass: float = 0.01  # clusters with less weight are dropped
-    cluster_min_particles: int = 8  # clusters with fewer particles are dropped
-    max_objects: int = 12  # at most this many objects per target
-    em: str = "numpy"  # "numpy" (our weighted EM, compiled; default) or "sklearn" (GaussianMixture on resampled particles; slower)
-    particle_velocity: bool = True  # particles near a track drift with its velocity (else the paper's pure random walk)
-    exclusion: bool = True  # a particle following one track dies inside another tracked ball (seed 000's blocking)
-    occlusion: bool = (
-        True  # a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it
+    particles: int = setting(2000, "N, total particles per target", low=1, high=10_000_000)
+    alpha: float = setting(0.2, "share of abductive (importance-sampled) particles, 0..1", low=0.0, high=1.0)
+    window: int = setting(5, "colour window W in pixels (odd)", low=1, high=101)
+    likelihood: str = setting(
+        "colour_window", "observation model, a file of stereotrack/particles/likelihoods/ (colour_window: the paper's eq. 14)"
     )
-    refine: bool = True  # objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from particles + motion)
-    disc_fit: bool = (
-        True  # with one clean view and a blob shared with other balls in another: depth along the ray where the balls' discs best fit it
+    motion_sigma: float = setting(0.02, "random-walk standard deviation per frame, metres", low=0.0, high=10.0)
+    d_min: float = setting(0.2, "nearest depth along a viewing ray for abductive particles, metres", low=0.0, high=1000.0)
+    d_max: float = setting(5.0, "farthest depth along a viewing ray, metres", low=0.0, high=1000.0)
+    blob_method: str = setting(
+        "components", '"components" (connected components) or "histogram" (paper\'s axis maxima)', choices=("components", "histogram")
     )
-    seed: int = 0  # random seed; runs are reproducible
+    min_blob_area: int = setting(6, "smallest colour blob, pixels", low=1, high=1_000_000)
+    depth_from_size: bool = setting(True, "narrow the ray's depth range with the ball's apparent size")
+    crossing_share: float = setting(
+        0.25, "share of the abductive particles placed where blob rays of two cameras cross (the rest along the rays)", low=0.0, high=1.0
+    )
+    cluster_min_likelihood: float = setting(0.05, "particles below this likelihood are not clustered", low=0.0, high=1.0)
+    cluster_min_mass: float = setting(0.01, "clusters with less weight are dropped", low=0.0, high=1.0)
+    cluster_min_particles: int = setting(8, "clusters with fewer particles are dropped", low=1, high=1_000_000)
+    max_objects: int = setting(12, "at most this many objects per target", low=1, high=1000)
+    em: str = setting(
+        "numpy",
+        '"numpy" (our weighted EM, compiled; default) or "sklearn" (GaussianMixture on resampled particles; slower)',
+        choices=("numpy", "sklearn"),
+    )
+    particle_velocity: bool = setting(True, "particles near a track drift with its velocity (else the paper's pure random walk)")
+    exclusion: bool = setting(True, "a particle following one track dies inside another tracked ball (seed 000's blocking)")
+    occlusion: bool = setting(
+        True, "a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it"
+    )
+    refine: bool = setting(
+        True,
+        "objects take the triangulated centroids of the blobs they alone explain (with one clean view: its ray, depth from the "
+        "particles, or from the ball's track when the other view's blob is shared with another ball)",
+    )
+    disc_fit: bool = setting(
+        True, "with one clean view and a blob shared with other balls in another: depth along the ray where the balls' discs best fit it"
+    )
+    seed: int = setting(0, "random seed; runs are reproducible", low=0, high=2**63 - 1)
+
+    def check(self, where: Any) -> None:
+        """What no single field can say; raises StereotrackError naming ``where`` (the file)."""
+        if self.d_min >= self.d_max:
+            raise _err(where, "tracker.d_min", f"must be less than d_max ({self.d_max}), got {self.d_min}")
+        if self.window % 2 == 0:
+            raise _err(where, "tracker.window", f"must be odd so the window is centred, got {self.window}")
 
 
 @dataclass(frozen=True)
 class TrackSettings:
     """Persistent identities (stereotrack/tracks): a Kalman filter per track, gated global assignment, a lifecycle in seconds."""
 
-    gate: float = 11.34  # Mahalanobis gate on the squared distance (chi-square, 3 dof: 7.81 = 95%, 11.34 = 99%)
-    confirm_time: float = 0.1  # seconds of hits before a new track is confirmed (only confirmed tracks go to tracks.csv)
-    tentative_time: float = 0.05  # a tentative track unseen for longer than this, seconds, is dropped (clutter)
-    report_coasting: float = 0.07  # seconds a confirmed track missed by the detector is still written, at its prediction
-    delete_time: float = 0.5  # a track unseen for longer than this, seconds, is deleted; a ball seen again sooner keeps its id
-    accel_noise: float = 30.0  # motion model: white-acceleration spectral density, m^2/s^3 (how fast a ball may change velocity)
-    measurement_sigma: float = 0.01  # metres, added to each object's own covariance as measurement noise
-    init_speed_sigma: float = 3.0  # velocity uncertainty of a new track, m/s
-    min_separation: float = 0.05  # metres; an unmatched object this close to a live track is that ball seen twice, not a new one
-    up: tuple[float, float, float] | None = None  # the world's up axis, e.g. [0, 0, 1], for gravity; none = no gravity (unknown rig)
-    g: float = 9.81  # gravity, m/s^2, used only when 'up' is set
-    flight_window: float = (
-        0.25  # seconds of recent positions that decide if a ball flies freely (gravity on) or is held, swung or rolled (off)
+    gate: float = setting(
+        11.34, "Mahalanobis gate on the squared distance (chi-square, 3 dof: 7.81 = 95%, 11.34 = 99%)", low=0.1, high=1000.0
+    )
+    confirm_time: float = setting(
+        0.1, "seconds of hits before a new track is confirmed (only confirmed tracks go to tracks.csv)", low=0.0, high=60.0
+    )
+    tentative_time: float = setting(
+        0.05, "a tentative track unseen for longer than this, seconds, is dropped (clutter)", low=0.0, high=60.0
+    )
+    report_coasting: float = setting(
+        0.07, "seconds a confirmed track missed by the detector is still written, at its prediction", low=0.0, high=3600.0
+    )
+    delete_time: float = setting(
+        0.5, "a track unseen for longer than this, seconds, is deleted; a ball seen again sooner keeps its id", low=0.0, high=3600.0
+    )
+    accel_noise: float = setting(
+        30.0, "motion model: white-acceleration spectral density, m^2/s^3 (how fast a ball may change velocity)", low=0.0, high=1e6
+    )
+    measurement_sigma: float = setting(0.01, "metres, added to each object's own covariance as measurement noise", low=0.0, high=10.0)
+    init_speed_sigma: float = setting(3.0, "velocity uncertainty of a new track, m/s", low=0.0, high=1000.0)
+    min_separation: float = setting(
+        0.05, "metres; an unmatched object this close to a live track is that ball seen twice, not a new one", low=0.0, high=10.0
+    )
+    up: tuple[float, float, float] | None = setting(
+        None, "the world's up axis, e.g. [0, 0, 1], for gravity; none = no gravity (unknown rig)"
+    )
+    g: float = setting(9.81, "gravity, m/s^2, used only when 'up' is set", low=0.0, high=1000.0)
+    flight_window: float = setting(
+        0.25,
+        "seconds of recent positions that decide if a ball flies freely (gravity on) or is held, swung or rolled (off)",
+        low=0.01,
+        high=60.0,
     )
 
 
 @dataclass(frozen=True)
 class BaselineSettings:
-    """The classic OpenCV pipeline (baseline.py, `stereotrack track --method baseline`)."""
+    """The classic OpenCV pipeline (pipeline/baseline.py, `stereotrack track --method baseline`)."""
 
-    max_epipolar_px: float = 4.0  # blobs further than this from each other's epipolar line are not paired, pixels
-    pixel_sigma: float = 1.0  # blob centroid noise, pixels; sets each triangulated point's covariance
+    max_epipolar_px: float = setting(
+        4.0, "blobs further than this from each other's epipolar line are not paired, pixels", low=0.0, high=1e4
+    )
+    pixel_sigma: float = setting(1.0, "blob centroid noise, pixels; sets each triangulated point's covariance", low=0.0, high=1000.0)
 
 
 @dataclass(frozen=True)
@@ -100,38 +159,20 @@ class Config:
     baseline: BaselineSettings = field(default_factory=BaselineSettings)
 
 
-_RANGES: dict[str, tuple[float, float]] = {
-    "particles": (1, 10_000_000),
-    "alpha": (0.0, 1.0),
-    "crossing_share": (0.0, 1.0),
-    "window": (1, 101),
-    "motion_sigma": (0.0, 10.0),
-    "d_min": (0.0, 1000.0),
-    "d_max": (0.0, 1000.0),
-    "min_blob_area": (1, 1_000_000),
-    "cluster_min_likelihood": (0.0, 1.0),
-    "cluster_min_mass": (0.0, 1.0),
-    "cluster_min_particles": (1, 1_000_000),
-    "max_objects": (1, 1000),
-}
-# tracks: and baseline: sections
-_RANGES.update(
-    {
-        "gate": (0.1, 1000.0),
-        "confirm_time": (0.0, 60.0),
-        "tentative_time": (0.0, 60.0),
-        "delete_time": (0.0, 3600.0),
-        "report_coasting": (0.0, 3600.0),
-        "accel_noise": (0.0, 1e6),
-        "measurement_sigma": (0.0, 10.0),
-        "init_speed_sigma": (0.0, 1000.0),
-        "min_separation": (0.0, 10.0),
-        "g": (0.0, 1000.0),
-        "max_epipolar_px": (0.0, 10000.0),
-        "pixel_sigma": (0.0, 1000.0),
-    }
-)
-_CHOICES: dict[str, tuple[str, ...]] = {"blob_method": ("components", "histogram"), "em": ("numpy", "sklearn")}
+SECTIONS = {"tracker": TrackerSettings, "tracks": TrackSettings, "baseline": BaselineSettings}  # config file section -> its settings
+
+
+def settings_table() -> str:
+    """The README's table of every setting, printed from the fields' own defaults and documentation."""
+    header = (
+        "Every key is optional in a config file's `tracker:`, `tracks:` and `baseline:` sections; "
+        "unknown keys and out-of-range values are refused with the file and key named."
+    )
+    rows = [header, "", "| section.key | default | meaning |", "|---|---|---|"]
+    for section, cls in SECTIONS.items():
+        for f in dataclasses.fields(cls):
+            rows.append(f"| `{section}.{f.name}` | `{f.default}` | {f.metadata['doc']} |")
+    return "\n".join(rows)
 
 
 def _err(path, key: str, what: str) -> StereotrackError:
@@ -139,7 +180,7 @@ def _err(path, key: str, what: str) -> StereotrackError:
 
 
 def _section(path, name: str, cls, data: Any):
-    """Build a settings dataclass from a mapping, checking names, types and ranges."""
+    """Build a settings dataclass from a mapping, checking names, types, finiteness and the ranges its fields declare."""
     if data is None:
         return cls()
     if not isinstance(data, dict):
@@ -150,13 +191,13 @@ def _section(path, name: str, cls, data: Any):
         if key not in fields:
             hint = difflib.get_close_matches(str(key), fields, n=1)
             raise _err(path, f"{name}.{key}", "unknown setting" + (f" (did you mean '{hint[0]}'?)" if hint else ""))
-        default = getattr(cls(), key)
+        default = fields[key].default
         try:
             if isinstance(default, bool):
                 if not isinstance(value, bool):
                     raise TypeError
             elif isinstance(default, int):
-                if isinstance(value, bool) or float(value) != int(value):
+                if isinstance(value, bool) or not math.isfinite(float(value)) or float(value) != int(value):
                     raise TypeError
                 value = int(value)
             elif isinstance(default, float):
@@ -165,14 +206,16 @@ def _section(path, name: str, cls, data: Any):
                 value = float(value)
             elif isinstance(default, str):
                 value = str(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise _err(path, f"{name}.{key}", f"expected a {type(default).__name__}, got {value!r}") from None
-        if key in _RANGES:
-            lo, hi = _RANGES[key]
-            if not lo <= value <= hi:
-                raise _err(path, f"{name}.{key}", f"must be between {lo:g} and {hi:g}, got {value!r}")
-        if key in _CHOICES and value not in _CHOICES[key]:
-            raise _err(path, f"{name}.{key}", f"must be one of {', '.join(_CHOICES[key])}, got {value!r}")
+        meta = fields[key].metadata
+        if isinstance(value, float) and not math.isfinite(value):
+            raise _err(path, f"{name}.{key}", f"must be a finite number, got {value!r}")
+        lo, hi = meta.get("low"), meta.get("high")
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise _err(path, f"{name}.{key}", f"must be between {lo:g} and {hi:g}, got {value!r}")
+        if meta.get("choices") and value not in meta["choices"]:
+            raise _err(path, f"{name}.{key}", f"must be one of {', '.join(meta['choices'])}, got {value!r}")
         kwargs[key] = value
     return cls(**kwargs)
 
@@ -229,10 +272,7 @@ def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
     if len(set(names)) != len(names):
         raise _err(path, "targets", f"target names must be unique, got {names}")
     tracker = _section(path, "tracker", TrackerSettings, data.get("tracker"))
-    if tracker.d_min >= tracker.d_max:
-        raise _err(path, "tracker.d_min", f"must be less than d_max ({tracker.d_max}), got {tracker.d_min}")
-    if tracker.window % 2 == 0:
-        raise _err(path, "tracker.window", f"must be odd so the window is centred, got {tracker.window}")
+    tracker.check(path)
     tracks = _section(path, "tracks", TrackSettings, data.get("tracks"))
     tracks = dataclasses.replace(tracks, up=up_axis(tracks.up, f"{path}: 'tracks.up'"))
     baseline = _section(path, "baseline", BaselineSettings, data.get("baseline"))
@@ -281,3 +321,7 @@ def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, 
 
 def save_config(config: Config, path: str | Path) -> None:
     Path(path).write_text(yaml.safe_dump(config_to_dict(config), sort_keys=False, default_flow_style=None))
+
+
+if __name__ == "__main__":  # python -m stereotrack.config: the README's settings table
+    print(settings_table())

@@ -1,8 +1,17 @@
-"""Recording folders (formats.md section 2): a writer that survives being killed, and a reader.
+"""Recording folders (formats.md section 2): a writer that a kill cannot corrupt, and a reader.
 
-The writer appends one row to ``frames.csv`` per frame pair and flushes it at
-once, after the frames went to the video writers, so a killed writer leaves a
-folder that the reader opens up to the last complete pair.
+Videos are AVI files written through PyAV, one per camera. The default codec,
+``mjpg``, stores one JPEG per frame: the very bytes a webcam sent in MJPG mode
+(no re-encoding), or an image encoded here with libjpeg at quality 95 (raw
+sources); ``ffv1`` is lossless but costs about 110 ms per 720p frame
+(BENCHMARKS.md "Recording"). Every frame is flushed to its file as it is
+written, and the frames.csv row of a pair is written only after all of its
+frames are in their files: a killed writer (even SIGKILL) leaves a folder in
+which every row has its frames. Timestamps are written with full float
+precision, so a replay computes exactly the time steps the live run used.
+
+The reader decodes JPEG frames with ``cv2.imdecode``, the decoder the live
+cameras' frames go through, so a replay sees the pixels the live tracker saw.
 """
 
 from __future__ import annotations
@@ -12,6 +21,7 @@ import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -25,17 +35,87 @@ from .errors import StereotrackError
 from .files import load_yaml, read_columns
 from .frames import FramePair
 
-CODECS = {"ffv1": ("FFV1", ".mkv"), "mjpg": ("MJPG", ".avi")}
+CODECS = {"mjpg": ".avi", "ffv1": ".avi"}
+DEFAULT_CODEC = "mjpg"
+JPEG_QUALITY = 95  # raw frames encoded for a recording; BENCHMARKS.md "Recording" has the size/quality trade
+
+
+def encode_jpeg(image: np.ndarray, quality: int = JPEG_QUALITY) -> bytes:
+    """One BGR image as a JPEG file (libjpeg via OpenCV; releases the GIL)."""
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise StereotrackError(f"cannot encode a {image.shape} image as JPEG")
+    return buf.tobytes()
+
+
+def decode_jpeg(data: bytes | np.ndarray) -> np.ndarray | None:
+    """A JPEG file as a BGR image (None when corrupt). Live frames and replays both decode here."""
+    buf = np.frombuffer(data, np.uint8) if isinstance(data, (bytes, bytearray, memoryview)) else data.reshape(-1)
+    return cv2.imdecode(buf, cv2.IMREAD_COLOR)
+
+
+def format_time(t: float) -> str:
+    """A timestamp as written to frames.csv: the shortest text that reads back as the same float."""
+    return repr(float(t))
 
 
 # --------------------------------------------------------------------------- writer
+
+
+class _VideoOut:
+    """One camera's AVI file: packets muxed by PyAV and handed to the OS after every frame."""
+
+    def __init__(self, path: Path, codec: str, size: tuple[int, int], fps: float):
+        import av  # imported here: only writers need it, and it takes half a second
+
+        self.path = path
+        self.codec = codec
+        self.count = 0
+        # flush_packets: each frame is written to the file at once, not held in a 32 kB buffer
+        self._container = av.open(str(path), "w", format="avi", options={"flush_packets": "1"})
+        rate = Fraction(fps).limit_denominator(1001)
+        if codec == "mjpg":
+            self._stream = self._container.add_stream("mjpeg", rate=rate)
+            self._stream.pix_fmt = "yuvj420p"
+        else:
+            self._stream = self._container.add_stream("ffv1", rate=rate, options={"g": "1"})  # every frame a keyframe
+            self._stream.pix_fmt = "bgr0"
+        self._stream.width, self._stream.height = size
+        self._time_base = Fraction(1) / rate
+        self._av = av
+
+    def write_jpeg(self, data: bytes) -> None:
+        packet = self._av.Packet(data)
+        packet.stream = self._stream
+        packet.pts = packet.dts = self.count
+        packet.time_base = self._time_base
+        packet.is_keyframe = True
+        self._container.mux(packet)
+        self.count += 1
+
+    def write_image(self, image: np.ndarray) -> None:
+        if self.codec == "mjpg":
+            self.write_jpeg(encode_jpeg(image))
+            return
+        frame = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
+        frame.pts = self.count
+        for packet in self._stream.encode(frame):  # FFV1 has no encoder delay: one packet per frame, now
+            self._container.mux(packet)
+        self.count += 1
+
+    def close(self) -> None:
+        if self.codec != "mjpg":
+            for packet in self._stream.encode():
+                self._container.mux(packet)
+        self._container.close()  # writes the AVI index and header counts
 
 
 class RecordingWriter:
     """Writes a recording folder frame pair by frame pair.
 
     >>> with RecordingWriter("recordings/x", ["cam0", "cam1"], (640, 480), 30.0, rig=rig) as w:
-    ...     w.write([img0, img1], [t0, t1])
+    ...     w.write([img0, img1], [t0, t1])            # raw images (encoded here)
+    ...     w.write([None, None], [t0, t1], [jpeg0, jpeg1])  # JPEGs as a camera sent them (mjpg)
     """
 
     def __init__(
@@ -45,7 +125,7 @@ class RecordingWriter:
         image_size: tuple[int, int],
         fps: float,
         rig: Rig | None = None,
-        codec: str = "ffv1",
+        codec: str = DEFAULT_CODEC,
         source: str = "live",
         targets: dict[str, Any] | None = None,
         extra_meta: dict[str, Any] | None = None,
@@ -65,8 +145,8 @@ class RecordingWriter:
         self.camera_names = list(camera_names)
         self.image_size = (int(image_size[0]), int(image_size[1]))
         self.fps = float(fps)
-        fourcc, ext = CODECS[codec]
-        videos = {name: f"{name}{ext}" for name in self.camera_names}
+        self.codec = codec
+        videos = {name: f"{name}{CODECS[codec]}" for name in self.camera_names}
         meta: dict[str, Any] = {
             "version": 1,
             "cameras": self.camera_names,
@@ -84,12 +164,14 @@ class RecordingWriter:
         if rig is not None:
             save_rig(rig, self.folder / "calib.yaml")
         (self.folder / "meta.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
-        self._writers = []
-        for name in self.camera_names:
-            w = cv2.VideoWriter(str(self.folder / videos[name]), cv2.VideoWriter_fourcc(*fourcc), self.fps, self.image_size)
-            if not w.isOpened():
-                raise StereotrackError(f"cannot open a {codec} video writer for {self.folder / videos[name]} (try --codec mjpg)")
-            self._writers.append(w)
+        self._videos: list[_VideoOut] = []
+        try:
+            for name in self.camera_names:
+                self._videos.append(_VideoOut(self.folder / videos[name], codec, self.image_size, self.fps))
+        except Exception as exc:
+            for v in self._videos:
+                v.close()
+            raise StereotrackError(f"cannot open a {codec} video writer in {self.folder}: {exc}") from None
         self._frames_file = open(self.folder / "frames.csv", "w", newline="")
         self._frames_file.write("frame," + ",".join(f"t_{n}" for n in self.camera_names) + "\n")
         self._frames_file.flush()
@@ -97,17 +179,30 @@ class RecordingWriter:
         self._truth_fields = tuple(truth_fields)  # optional extra truth.csv columns after x,y,z
         self.count = 0
 
-    def write(self, images: Sequence[np.ndarray], timestamps: Sequence[float]) -> int:
-        """Append one frame pair; returns its frame index."""
-        if len(images) != len(self._writers) or len(timestamps) != len(self._writers):
-            raise ValueError("one image and one timestamp per camera")
+    def write(self, images: Sequence[np.ndarray | None], timestamps: Sequence[float], jpegs: Sequence[bytes | None] | None = None) -> int:
+        """Append one frame pair; returns its frame index.
+
+        ``jpegs`` (mjpg only) are the frames as a camera sent them, stored as they are;
+        cameras without one give their image instead.
+        """
+        n = len(self._videos)
+        jpegs = list(jpegs) if jpegs is not None and self.codec == "mjpg" else [None] * n
+        if len(images) != n or len(timestamps) != n or len(jpegs) != n:
+            raise ValueError("one image (or JPEG) and one timestamp per camera")
         w, h = self.image_size
-        for img, writer in zip(images, self._writers):
-            if img.shape[:2] != (h, w):
+        for img, jpeg in zip(images, jpegs):
+            if jpeg is None and img is None:
+                raise ValueError("a camera gave neither an image nor a JPEG")
+            if jpeg is None and img.shape[:2] != (h, w):
                 raise StereotrackError(f"frame of size {img.shape[1]}x{img.shape[0]} does not match the recording's {w}x{h}")
-            writer.write(np.ascontiguousarray(img))
+        for video, img, jpeg in zip(self._videos, images, jpegs):
+            if jpeg is not None:
+                video.write_jpeg(jpeg)
+            else:
+                video.write_image(img)
+        # Only now, with every frame of the pair in its file, the row that lists it.
         index = self.count
-        self._frames_file.write(f"{index}," + ",".join(f"{t:.6f}" for t in timestamps) + "\n")
+        self._frames_file.write(f"{index}," + ",".join(format_time(t) for t in timestamps) + "\n")
         self._frames_file.flush()
         self.count += 1
         return index
@@ -127,9 +222,12 @@ class RecordingWriter:
         self._truth_file.flush()
 
     def close(self) -> None:
-        for w in self._writers:
-            w.release()
-        self._writers = []
+        for v in self._videos:
+            v.close()
+            if v.path.is_file():  # PyAV creates the file with the first frame
+                with open(v.path, "rb") as f:
+                    os.fsync(f.fileno())
+        self._videos = []
         for f in (self._frames_file, self._truth_file):
             if f is not None and not f.closed:
                 f.flush()
@@ -168,6 +266,48 @@ def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
     return np.asarray(rows, dtype=float).reshape(-1, len(names))
 
 
+def read_tracked_frames(path: Path) -> np.ndarray | None:
+    """tracked.csv (written by ``live --record``): the frames the live tracker stepped, in order; None if absent."""
+    if not path.is_file():
+        return None
+    frames = []
+    with open(path, newline="") as f:
+        lines = f.read().split("\n")
+    if lines[0].strip() != "frame":
+        raise StereotrackError(f"{path}: header must be 'frame'")
+    for line in lines[1:-1]:  # the last piece is '' or a line cut short by a kill
+        try:
+            frames.append(int(line))
+        except ValueError:
+            raise StereotrackError(f"{path}: {line!r} is not a frame number") from None
+    return np.asarray(frames, dtype=int)
+
+
+class _VideoIn:
+    """One video's frames in order. JPEG frames (MJPG) are read as packets and decoded by
+    ``decode_jpeg``; other codecs (FFV1 of older recordings) by OpenCV's video decoder."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self._cap = cv2.VideoCapture(str(path))
+        fourcc = int(self._cap.get(cv2.CAP_PROP_FOURCC))
+        self.jpeg = fourcc.to_bytes(4, "little").upper() == b"MJPG"
+        if self.jpeg:
+            self.jpeg = bool(self._cap.set(cv2.CAP_PROP_FORMAT, -1))  # raw packets, undecoded
+
+    def skip(self) -> bool:
+        return self._cap.grab()
+
+    def read(self) -> np.ndarray | None:
+        ok, data = self._cap.read()
+        if not ok or data is None:
+            return None
+        return decode_jpeg(data) if self.jpeg else data
+
+    def release(self) -> None:
+        self._cap.release()
+
+
 @dataclass(frozen=True, eq=False)
 class Recording:
     """An opened recording folder. ``frames()`` yields FramePairs."""
@@ -180,6 +320,7 @@ class Recording:
     timestamps: np.ndarray  # n_frames x n_cameras (complete pairs only)
     rig: Rig | None
     video_paths: tuple[Path, ...]
+    tracked_frames: np.ndarray | None = None  # the frames a live run tracked (tracked.csv), if any
 
     @property
     def n_frames(self) -> int:
@@ -200,26 +341,50 @@ class Recording:
             raise StereotrackError(f"{self.folder}: no calib.yaml in the recording; pass --calib FILE")
         return self.rig
 
-    def frames(self, start: int = 0, stop: int | None = None) -> Iterator[FramePair]:
-        """Decode frame pairs in order, up to the last complete pair."""
+    def frames(self, start: int = 0, stop: int | None = None, only: Sequence[int] | None = None) -> Iterator[FramePair]:
+        """Decode frame pairs in order, up to the last complete pair; ``only``: just these frames.
+
+        The cameras' frames of a pair are decoded in parallel, and the next pair is
+        decoded while the caller works on this one (JPEG decoding releases the GIL).
+        """
+        from concurrent.futures import ThreadPoolExecutor
+
         stop = self.n_frames if stop is None else min(stop, self.n_frames)
-        caps = [cv2.VideoCapture(str(p)) for p in self.video_paths]
+        wanted = range(start, stop) if only is None else [int(i) for i in only if start <= i < stop]
+        videos = [_VideoIn(p) for p in self.video_paths]
+        pool = ThreadPoolExecutor(len(videos), thread_name_prefix="decode")
+        position = 0  # next frame index every video is at
+
+        def submit(index: int):
+            nonlocal position
+            skip = index - position
+            position = index + 1
+            return [pool.submit(_skip_then_read, v, skip) for v in videos]
+
         try:
-            if start:
-                for cap in caps:
-                    cap.set(cv2.CAP_PROP_POS_FRAMES, start)
-            for index in range(start, stop):
-                images = []
-                for cap in caps:
-                    ok, img = cap.read()
-                    if not ok:
-                        warn(f"{self.folder}: videos end at frame {index} of {self.n_frames} (interrupted recording?); stopping there")
-                        return
-                    images.append(img)
+            queue = iter(wanted)
+            nxt = next(queue, None)
+            pending = submit(nxt) if nxt is not None else None
+            while pending is not None:
+                index = nxt
+                images = [f.result() for f in pending]
+                nxt = next(queue, None)
+                pending = submit(nxt) if nxt is not None and all(img is not None for img in images) else None
+                if any(img is None for img in images):
+                    warn(f"{self.folder}: videos end at frame {index} of {self.n_frames} (interrupted recording?); stopping there")
+                    return
                 yield FramePair(index=index, images=tuple(images), timestamps=tuple(float(v) for v in self.timestamps[index]))
         finally:
-            for cap in caps:
-                cap.release()
+            pool.shutdown(wait=True, cancel_futures=True)  # no decoder may still be reading a video we release
+            for v in videos:
+                v.release()
+
+
+def _skip_then_read(video: _VideoIn, skip: int) -> np.ndarray | None:
+    for _ in range(skip):
+        if not video.skip():
+            return None
+    return video.read()
 
 
 def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recording:
@@ -283,9 +448,17 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
         timestamps=timestamps[:n],
         rig=rig,
         video_paths=tuple(paths),
+        tracked_frames=read_tracked_frames(folder / "tracked.csv"),
     )
 
 
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
     return read_columns(path, ["frame", "object_id", "x", "y", "z"], "ground-truth file")
+
+
+def __getattr__(name: str):
+    """Names that moved out of this module (``RecordingSink``, now in sinks/recorder.py) still import from here."""
+    from ._compat import moved_name
+
+    return moved_name(__name__, name)

@@ -1,12 +1,13 @@
 """What the pipeline hands to its sinks each frame: plain frozen data, no behaviour.
 
-Data flows one way: source -> masks -> particles -> objects -> tracks -> sinks.
+Data flows one way: source -> evidence -> particles -> objects -> tracks -> sinks.
 Sinks (tracks CSV, rerun viewer, recording writer, console) receive a
 ``FrameResult`` per frame and never reach back into the tracker.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -49,6 +50,60 @@ class TrackEstimate:
     state: str  # "tentative", "confirmed" or "coasting"
     n_particles: int = 0
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
+
+
+@dataclass(frozen=True, eq=False)
+class TrackedBalls:
+    """Where the tracks put balls this frame, every target's: the one form the stages read it in.
+
+    The population keeps particles out of other balls and lets other colours
+    occlude; the likelihood skips a camera whose view a ball of another colour
+    blocks; explain-away favours objects where a track predicts a ball and cuts
+    blobs that a nearer ball covers. Each takes the selection it needs
+    (``confirmed_only``, ``of``, ``others``).
+    """
+
+    centres: np.ndarray  # B x 3, world metres
+    radii: np.ndarray  # B, metres
+    track_ids: np.ndarray  # B, int
+    targets: tuple[str, ...]  # B target names
+    confirmed: np.ndarray  # B bool: seen at the latest update (else coasting)
+
+    @classmethod
+    def from_tracks(cls, tracks: Sequence[TrackEstimate], radius: Mapping[str, float]) -> TrackedBalls:
+        """The tracks past their tentative start (confirmed or coasting), with their target's ball radius."""
+        live = [t for t in tracks if t.state != "tentative"]
+        return cls(
+            np.array([t.position for t in live]).reshape(-1, 3),
+            np.array([radius[t.target] for t in live]),
+            np.array([t.track_id for t in live], dtype=int),
+            tuple(t.target for t in live),
+            np.array([t.state == "confirmed" for t in live], dtype=bool),
+        )
+
+    def __len__(self) -> int:
+        return len(self.centres)
+
+    def where(self, keep: np.ndarray) -> TrackedBalls:
+        keep = np.asarray(keep, dtype=bool)
+        return TrackedBalls(
+            self.centres[keep].reshape(-1, 3),
+            self.radii[keep],
+            self.track_ids[keep],
+            tuple(np.array(self.targets, dtype=object)[keep]),
+            self.confirmed[keep],
+        )
+
+    def confirmed_only(self) -> TrackedBalls:
+        return self.where(self.confirmed)
+
+    def of(self, target: str) -> TrackedBalls:
+        """The balls of one target."""
+        return self.where(np.array([t == target for t in self.targets], dtype=bool))
+
+    def others(self, target: str) -> TrackedBalls:
+        """The balls of every other target."""
+        return self.where(np.array([t != target for t in self.targets], dtype=bool))
 
 
 @dataclass(frozen=True, eq=False)

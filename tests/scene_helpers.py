@@ -4,9 +4,12 @@ import cv2
 import numpy as np
 
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at
-from stereotrack.colour import integral_image
+from stereotrack.config import Target
+from stereotrack.evidence.colour import integral_image
+from stereotrack.evidence.gather import CameraEvidence
 
 RADIUS = 0.035
+TARGET = Target("pink", (140, 60, 50), (175, 255, 255), RADIUS)
 
 
 def default_rig(width=640, height=480) -> Rig:
@@ -32,3 +35,17 @@ def disc_masks(rig: Rig, balls: np.ndarray, radius: float = RADIUS):
                 cv2.circle(m, (int(round(u * 16)), int(round(v * 16))), int(round(r * 16)), 1, -1, shift=4)
         masks.append(m)
     return masks, [integral_image(m) for m in masks]
+
+
+def evidence(rig: Rig, masks) -> tuple[CameraEvidence, ...]:
+    """Each camera's evidence of drawn masks: blobs and their viewing rays, as the tracker builds them."""
+    return tuple(CameraEvidence.from_mask(cam, m) for cam, m in zip(rig.cameras, masks))
+
+
+def balls_at(centres, target: str = "pink", first_id: int = 1, radius: float = RADIUS, confirmed: bool = True):
+    """Tracked balls of one target at these centres."""
+    from stereotrack.results import TrackedBalls
+
+    centres = np.asarray(centres, float).reshape(-1, 3)
+    n = len(centres)
+    return TrackedBalls(centres, np.full(n, radius), np.arange(first_id, first_id + n), (target,) * n, np.full(n, confirmed))

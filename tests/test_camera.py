@@ -124,3 +124,17 @@ def test_malformed_and_missing_calibration(tmp_path):
     rig = make_rig()
     with pytest.raises(StereotrackError, match="no camera named 'cam7'"):
         rig["cam7"]
+
+
+def test_rig_views_and_apparent_radius_agree_with_each_camera():
+    from scene_helpers import default_rig
+
+    rig = default_rig()
+    pts = np.array([[0.0, 1.5, 0.0], [0.3, 2.5, 0.2], [0.0, -1.0, 0.0]])  # the last is behind both cameras
+    uv, front, depth = rig.views(pts)
+    assert uv.shape == (2, 3, 2) and front.shape == depth.shape == (2, 3)
+    for c, cam in enumerate(rig.cameras):
+        u, f = cam.project(pts)
+        assert np.allclose(uv[c][f], u[f]) and np.array_equal(front[c], f)
+        r = cam.apparent_radius(0.035, depth[c])
+        assert np.allclose(r[f], cam.focal_px * 0.035 / cam.depth(pts)[f])

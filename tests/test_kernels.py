@@ -1,184 +1,49 @@
-"""The compiled kernels against plain numpy / OpenCV versions of the same arithmetic."""
+"""How kernels are compiled and cached: every stage's kernels are registered, and a change to any kernel file
+renews every kernel file's stamp, so numba recompiles callers whose callee changed (numba issue 1833)."""
 
-import json
+from __future__ import annotations
+
+import os
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
-import cv2
-import numpy as np
-import pytest
-from scene_helpers import RADIUS, default_rig
+import stereotrack
+from stereotrack.kernels import KERNELS, kernel_files
 
-from stereotrack import kernels
-from stereotrack.camera import stacked_kernel_arrays
-from stereotrack.tracks import motion_model
-
-STEP_AFTER_WARM_UP = """
-import json
-import numpy as np
-import stereotrack.discs as discs
-from stereotrack import kernels
-from stereotrack.pipeline import Tracker
-from stereotrack.recording import FramePair
-from stereotrack.synth import SceneRenderer, make_preset
-
-spec = make_preset("pendulum4", n_frames=150)  # balls merge into shared blobs: every kernel runs
-renderer = SceneRenderer(spec)
-tracker = Tracker(renderer.rig, spec.config())  # warms the kernels up
-dispatchers = {name: k for name, k in vars(kernels).items() if hasattr(k, "signatures")}
-before = {name: len(k.signatures) for name, k in dispatchers.items()}
-fits = []
-fit = discs.ball_union_mismatch
-discs.ball_union_mismatch = lambda *args: fits.append(1) or fit(*args)
-for i in range(150):
-    images, _ = renderer.render(i)
-    tracker.step(FramePair(i, tuple(images), (renderer.time(i),) * 2))
-after = {name: len(k.signatures) for name, k in dispatchers.items()}
-print(json.dumps({"before": before, "after": after, "disc_fits": len(fits)}))
-"""
+PACKAGE = Path(stereotrack.__file__).resolve().parent
 
 
-def test_warm_up_compiles_the_signatures_a_tracker_step_uses():
-    """A kernel called at run time with other argument types than the warm-up's compiles again, in the
-    middle of a frame. In a fresh interpreter, tracking must add no signature to any kernel."""
-    out = subprocess.run([sys.executable, "-c", STEP_AFTER_WARM_UP], capture_output=True, text=True, timeout=300, check=True)
-    counts = json.loads(out.stdout.strip().splitlines()[-1])
-    assert len(counts["before"]) >= 15
-    assert counts["after"] == counts["before"]
-    assert all(n == 1 for name, n in counts["before"].items() if not name.startswith("_") and name != "log_gauss")
-    assert counts["disc_fits"] > 0  # the disc fit ran too
+def test_every_stage_has_its_kernels_beside_it_and_registered():
+    assert {f.parent.name for f in kernel_files()} == {"stereotrack", "evidence", "particles", "objects", "tracks"}
+    import stereotrack.evidence.kernels
+    import stereotrack.objects.kernels
+    import stereotrack.particles.kernels
+    import stereotrack.tracks.kernels  # noqa: F401
+
+    homes = {k.py_func.__module__ for k in KERNELS}
+    assert homes >= {"stereotrack.kernels", "stereotrack.evidence.kernels", "stereotrack.objects.kernels", "stereotrack.tracks.kernels"}
 
 
-def test_weighted_em_counts_a_weight_as_repeated_points():
-    rng = np.random.default_rng(0)
-    X = np.vstack([rng.normal([0, 1.5, 0], 0.02, (40, 3)), rng.normal([0.1, 1.6, 0], 0.02, (40, 3))])
-    reps = rng.integers(1, 4, len(X))
-    means0 = np.array([[0.01, 1.5, 0.0], [0.09, 1.6, 0.0]])
-    covs0 = np.repeat(np.eye(3)[None] * 1e-3, 2, axis=0)
-    a = kernels.weighted_em(X, reps.astype(float), means0, covs0, 3, 1e-6)
-    b = kernels.weighted_em(np.repeat(X, reps, axis=0), np.ones(reps.sum()), means0, covs0, 3, 1e-6)
-    for x, y in zip(a[:3], b[:3]):
-        assert np.allclose(x, y, rtol=1e-9, atol=1e-12)
-
-
-def test_weighted_moments_and_hard_labels_match_numpy():
-    rng = np.random.default_rng(1)
-    X = rng.normal(0, 1, (200, 3))
-    rw = rng.random((200, 3))
-    mass, means, covs = kernels.weighted_moments(X, rw)
-    for k in range(3):
-        assert mass[k] == pytest.approx(rw[:, k].sum())
-        assert np.allclose(means[k], np.average(X, axis=0, weights=rw[:, k]))
-        assert np.allclose(covs[k], np.cov(X.T, aweights=rw[:, k], bias=True))
-    pis = np.array([0.2, 0.3, 0.5])
-    assert np.array_equal(kernels.hard_labels(X, means, covs, pis), kernels.log_gauss(X, means, covs, pis).argmax(axis=1))
-
-
-def test_kalman_steps_match_the_textbook_formulas():
-    rng = np.random.default_rng(2)
-    F, Q, b = motion_model(1 / 30, 30.0, np.array([0.0, 0.0, -9.81]))
-    H = np.hstack([np.eye(3), np.zeros((3, 3))])
-    for _ in range(20):
-        A, B = rng.normal(size=(6, 6)), rng.normal(size=(3, 3))
-        P, R = A @ A.T + 0.1 * np.eye(6), B @ B.T + 0.01 * np.eye(3)
-        x, z = rng.normal(size=6), rng.normal(size=3)
-        xp, Pp = kernels.kalman_predict(x, P, F, Q, b)
-        assert np.allclose(xp, F @ x + b) and np.allclose(Pp, F @ P @ F.T + Q)
-        K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
-        IKH = np.eye(6) - K @ H
-        xc, Pc = kernels.kalman_correct(x, P, z, R)
-        assert np.allclose(xc, x + K @ (z - H @ x)) and np.allclose(Pc, IKH @ P @ IKH.T + K @ R @ K.T)
-
-
-def test_component_boxes_and_mask_moments_match_opencv():
-    rng = np.random.default_rng(3)
-    mask = (cv2.GaussianBlur(rng.random((120, 160)), (0, 0), 4) > 0.52).astype(np.uint8)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    assert n > 3
-    area, boxes = kernels.component_boxes(labels, n)
-    assert np.array_equal(area, stats[1:, cv2.CC_STAT_AREA])
-    assert np.array_equal(boxes[:, :2], stats[1:, :2]) and np.array_equal(boxes[:, 2:] - boxes[:, :2], stats[1:, 2:4])
-    count, centre, size = kernels.mask_moments(mask, boxes, 1)  # scale 1: each box grown by one pixel
-    for i, (x0, y0, x1, y1) in enumerate(boxes):
-        x0, y0, x1, y1 = max(x0 - 1, 0), max(y0 - 1, 0), min(x1 + 1, 160), min(y1 + 1, 120)
-        m = cv2.moments(mask[y0:y1, x0:x1], binaryImage=True)
-        assert count[i] == m["m00"]
-        assert np.allclose(centre[i], (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]))
-        assert np.array_equal(size[i], cv2.boundingRect(mask[y0:y1, x0:x1])[2:])
-
-
-def test_blob_at_takes_the_label_else_the_nearest_blob_within_reach():
-    labels = np.zeros((10, 10), np.int32)
-    labels[2:4, 2:4] = 1
-    label_blob = np.array([-1, 0])
-    centres = np.array([[5.0, 5.0], [15.0, 15.0]])  # pixels; labels are at scale 2
-    radii = np.array([2.0, 2.0])
-    uv = np.array([[5.0, 5.0], [12.0, 12.0], [40.0, 40.0], [5.0, 5.0]])
-    ok = np.array([True, True, True, False])
-    got = kernels.blob_at(uv, ok, np.full(4, 3.0), 20, 20, labels, label_blob, 2, True, centres, radii)
-    assert list(got) == [0, 1, -1, -1]  # on blob 0's label; 4.2 px from blob 1 (within 3 + 2); far; behind the camera
-
-
-def test_disc_union_mismatch_counts_cells_like_a_drawn_picture():
-    """Against the definition: cells where (candidate disc | other discs) differs from the blob."""
-    rng = np.random.default_rng(4)
-    labels = np.zeros((40, 50), np.int32)
-    yy, xx = np.mgrid[0:40, 0:50]
-    labels[(xx - 20) ** 2 + (yy - 18) ** 2 <= 36] = 1
-    labels[(xx - 27) ** 2 + (yy - 20) ** 2 <= 25] = 1
-    label_blob = np.array([-1, 0])
-    box = np.array([14, 12, 33, 26])
-    scale, off = 2, 0.5
-    gx, gy = xx * scale + off, yy * scale + off
-    others_uv, others_r = np.array([[54.5, 40.5]]), np.array([10.0])
-    cand_uv = rng.uniform(20, 80, (15, 2))
-    cand_r = rng.uniform(5, 15, 15)
-    got = kernels.disc_union_mismatch(labels, label_blob, 0, box, scale, cand_uv, cand_r, others_uv, others_r)
-    covered = (gx - others_uv[0, 0]) ** 2 + (gy - others_uv[0, 1]) ** 2 <= others_r[0] ** 2
-    for (u, v), r, g in zip(cand_uv, cand_r, got):
-        balls = covered | ((gx - u) ** 2 + (gy - v) ** 2 <= r * r)
-        assert g == np.count_nonzero(balls != (labels == 1)) * scale * scale
-
-
-def test_merge_one_ball_clusters_merges_a_depth_elongated_ball_and_keeps_touching_balls():
-    rig = default_rig()
-    c0 = rig.cameras[0]
-    ball = np.array([0.0, 1.5, 0.0])
-    ray = (ball - c0.centre) / np.linalg.norm(ball - c0.centre)
-    # Two pieces of one ball's cloud 1.5 R apart along cam0's ray (cam1 sees them a little apart), and a
-    # second ball touching the first from the side (2R apart: two balls).
-    means = np.array([ball - 0.75 * RADIUS * ray, ball + 0.75 * RADIUS * ray, ball + np.array([2.05 * RADIUS, 0, 0])])
-    mass = np.array([0.2, 0.3, 0.5])
-    labels = np.array([0, 1, 2, -1, 1])
-    kept, out_means, out_mass, out_labels = kernels.merge_one_ball_clusters(
-        means, mass, labels, RADIUS, *stacked_kernel_arrays(rig.cameras)
+def _import_kernels(copy: Path) -> None:
+    subprocess.run(
+        [sys.executable, "-c", "import stereotrack.kernels"], cwd=copy, env=dict(os.environ, PYTHONPATH=str(copy)), check=True, timeout=120
     )
-    assert list(kept) == [True, False, True]
-    assert np.allclose(out_means[0], (0.2 * means[0] + 0.3 * means[1]) / 0.5) and np.allclose(out_mass, [0.5, 0.5])
-    assert list(out_labels) == [0, 0, 1, -1, 0]
 
 
-def test_greedy_seeds_keep_last_frames_objects_and_claim_new_balls():
-    rig = default_rig()
-    rng = np.random.default_rng(5)
-    a, b = np.array([0.0, 1.5, 0.0]), np.array([0.3, 1.2, 0.1])
-    X = np.vstack([a + rng.normal(0, 0.01, (60, 3)), b + rng.normal(0, 0.01, (40, 3))])
-    w = np.full(100, 0.01)
-    views = [c.view(X) for c in rig.cameras]
-    uv, ok, z = (np.stack(v) for v in zip(*views))
-    f_over_z = np.stack([0.5 * (c.K[0, 0] + c.K[1, 1]) / zc for c, zc in zip(rig.cameras, z)])
-    seeds = kernels.greedy_seeds(X, w, a[None] + 0.02, RADIUS, 0.05, 12, uv, ok, f_over_z)
-    assert len(seeds) == 2  # a (from last frame's object) and b (new), nothing else weighs 0.05
-    assert np.linalg.norm(seeds[0] - a) < 0.01 and np.linalg.norm(seeds[1] - b) < 0.01
-
-
-def test_association_costs_match_numpy():
-    rng = np.random.default_rng(6)
-    pos, z = rng.normal(size=(4, 3)), rng.normal(size=(5, 3))
-    A, B = rng.normal(size=(4, 3, 3)), rng.normal(size=(5, 3, 3))
-    P, R = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(3), B @ B.transpose(0, 2, 1) + 0.01 * np.eye(3)
-    d2, cost = kernels.association_costs(pos, P, z, R)
-    S = P[:, None] + R[None]
-    y = z[None] - pos[:, None]
-    want = np.einsum("tmi,tmi->tm", y, np.linalg.solve(S, y[..., None])[..., 0])
-    assert np.allclose(d2, want) and np.allclose(cost, want + np.linalg.slogdet(S)[1])
+def test_a_changed_kernel_file_renews_every_kernel_files_stamp(tmp_path):
+    copy = tmp_path / "pkg"
+    shutil.copytree(PACKAGE, copy / "stereotrack", ignore=shutil.ignore_patterns("__pycache__", "data"))
+    files = [copy / "stereotrack" / "kernels.py", *sorted((copy / "stereotrack").glob("*/kernels.py"))]
+    _import_kernels(copy)  # first import: records the sources' digest
+    past = 1_000_000_000.0
+    for f in files:
+        os.utime(f, (past, past))
+    _import_kernels(copy)  # nothing changed: stamps stay
+    assert all(f.stat().st_mtime == past for f in files)
+    tracks = copy / "stereotrack" / "tracks" / "kernels.py"
+    tracks.write_text(tracks.read_text() + "\n# a changed callee\n")
+    os.utime(tracks, (past, past))
+    _import_kernels(copy)  # one file changed: every kernel file gets a new stamp (numba's cache key)
+    assert all(f.stat().st_mtime > past for f in files)

@@ -12,7 +12,7 @@ import yaml
 from stereotrack.camera import save_rig
 from stereotrack.errors import StereotrackError
 from stereotrack.recording import RecordingWriter, open_recording, read_truth
-from stereotrack.synth import RigSpec
+from stereotrack.simulation.spec import RigSpec
 
 SIZE = (160, 120)
 
@@ -44,7 +44,7 @@ def test_ffv1_round_trip_is_lossless(tmp_path):
     rec = open_recording(folder)
     assert rec.n_frames == 6 and rec.fps == 30.0 and rec.camera_names == ("cam0", "cam1") and rec.image_size == SIZE
     assert rec.rig is not None and rec.rig.names == ["cam0", "cam1"]
-    assert sorted(p.name for p in folder.iterdir()) == ["calib.yaml", "cam0.mkv", "cam1.mkv", "frames.csv", "meta.yaml"]
+    assert sorted(p.name for p in folder.iterdir()) == ["calib.yaml", "cam0.avi", "cam1.avi", "frames.csv", "meta.yaml"]
     pairs = list(rec.frames())
     assert [p.index for p in pairs] == list(range(6))
     for pair in pairs:
@@ -87,7 +87,7 @@ WRITER = """
 import sys, numpy as np
 sys.path.insert(0, {repo!r})
 from stereotrack.recording import RecordingWriter
-w = RecordingWriter(sys.argv[1], ["cam0", "cam1"], (160, 120), 30.0, source="test")
+w = RecordingWriter(sys.argv[1], ["cam0", "cam1"], (160, 120), 30.0, codec="ffv1", source="test")
 i = 0
 while True:
     rng = np.random.default_rng(i)
@@ -145,8 +145,8 @@ def test_reader_warns_and_stops_when_frames_csv_and_videos_disagree(tmp_path, ca
 def test_reader_refuses_a_missing_video(tmp_path):
     folder = tmp_path / "rec"
     write_recording(folder, 2)
-    (folder / "cam1.mkv").unlink()
-    with pytest.raises(StereotrackError, match=r"cam1\.mkv: video for camera 'cam1' is missing"):
+    (folder / "cam1.avi").unlink()
+    with pytest.raises(StereotrackError, match=r"cam1\.avi: video for camera 'cam1' is missing"):
         open_recording(folder)
 
 

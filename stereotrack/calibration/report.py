@@ -1,4 +1,4 @@
-"""The calibration report: per-camera and stereo RMS, epipolar error, per-view errors, coverage, and a verdict."""
+"""The calibration report: residuals after the fit per camera, pair and view, baselines with their uncertainty, coverage, a verdict."""
 
 from __future__ import annotations
 

@@ -1,9 +1,10 @@
-"""Solving the rig from board views: intrinsics per camera, then every camera's pose.
+"""Solving the rig from board views: starts per camera and per pair, then one joint fit of everything.
 
-Intrinsics per camera (``cv2.calibrateCamera``), then the pose of every
-other camera relative to the first (``cv2.stereoCalibrate`` with the
-intrinsics fixed, optionally a joint refinement). More than two cameras are
-chained pairwise along the pairs that share most views. The views come from
+The start: intrinsics per camera (``cv2.calibrateCamera``), the pose of every
+other camera relative to the first through the pairs that share most views
+(``cv2.stereoCalibrate`` with the intrinsics fixed), chessboard labels made to
+agree between cameras, and every board pose through the first camera that saw
+it. Then ``bundle.py`` refines all of it together. The views come from
 ``views.py``; the report on the result from ``report.py``.
 """
 

@@ -16,7 +16,8 @@ Device specs on the command line (``--cam0 SPEC``):
   the device loses a frame, default 0.01), ``stop`` (seconds after which the
   camera hangs, like an unplugged webcam), ``seed`` (default: the slot),
   ``loop`` (render that many seconds up front and loop them: a camera that
-  costs no CPU, for benchmarks).
+  costs no CPU, for benchmarks). Asked for MJPG (``--fourcc MJPG``, the
+  default), a simulated camera sends JPEGs (quality 90) as a webcam does.
 """
 
 from __future__ import annotations
@@ -92,52 +93,72 @@ class _StandInScene:
         return tuple(images), []
 
 
+JPEG_QUALITY = 90  # what a simulated camera in MJPG mode sends (webcams send 80-95)
+
+
 class _SharedScene:
-    """One scene rendered once per frame for every simulated camera that views it."""
+    """One scene rendered once per frame for every simulated camera that views it.
+
+    Frames are kept as the cameras send them (images, or JPEGs in MJPG mode).
+    Without ``loop`` only the last few frames are kept (the views of one frame
+    are taken within moments of each other), by render order, so memory stays
+    flat however often the cameras run through the scene.
+    """
 
     _registry: dict[tuple, _SharedScene] = {}
     _registry_lock = threading.Lock()
+    KEEP = 8  # frames kept without loop
 
-    def __init__(self, preset: str, width: int, height: int, fps: float, loop: float | None = None):
+    def __init__(self, preset: str, width: int, height: int, fps: float, loop: float | None = None, jpeg: bool = False):
         self.preset = preset
+        self.jpeg = jpeg
         self.renderer = _make_renderer(preset, width, height, fps)
         self.n_frames = int(getattr(self.renderer, "n_frames", 0) or 1 << 30)
         self._lock = threading.Lock()
-        self._cache: dict[int, tuple[np.ndarray, ...]] = {}
+        self._cache: dict[int, tuple] = {}  # insertion order is render order: the oldest go first
         self._keep_all = loop is not None
         if loop is not None:
             # Render the first seconds up front and loop them: the camera then costs no CPU,
             # like a real webcam, so benchmarks measure the tracker, not the renderer.
             self.n_frames = max(1, min(self.n_frames, round(loop * fps)))
             for k in range(self.n_frames):
-                self._cache[k] = tuple(self.renderer.render(k)[0])
+                self._cache[k] = self._render(k)
         else:
             # The first frame also loads the compiled projection (kernels.py): a real camera is warm
             # when opened, so take that one-off second here, before any camera's clock starts.
-            self._cache[0] = tuple(self.renderer.render(0)[0])
+            self._cache[0] = self._render(0)
+
+    def _render(self, k: int) -> tuple:
+        images = self.renderer.render(k)[0]
+        if self.jpeg:
+            from ..recording import encode_jpeg
+
+            return tuple(encode_jpeg(img, JPEG_QUALITY) for img in images)
+        return tuple(images)
 
     @classmethod
-    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None) -> _SharedScene:
-        key = (preset, width, height, fps, loop)
+    def get(cls, preset: str, width: int, height: int, fps: float, loop: float | None = None, jpeg: bool = False) -> _SharedScene:
+        key = (preset, width, height, fps, loop, jpeg)
         with cls._registry_lock:
             if key not in cls._registry:
-                cls._registry[key] = cls(preset, width, height, fps, loop)
+                cls._registry[key] = cls(preset, width, height, fps, loop, jpeg)
             return cls._registry[key]
 
-    def image(self, frame_index: int, view: int) -> np.ndarray:
+    def frame(self, frame_index: int, view: int):
+        """The view's image (JPEG bytes in MJPG mode) of a frame; shared: do not modify."""
         k = frame_index % self.n_frames  # scenes are finite; a camera runs for ever
         with self._lock:
-            images = self._cache.get(k)
-            if images is None:
-                images = tuple(self.renderer.render(k)[0])
-                self._cache[k] = images
-                for old in [i for i in self._cache if i < k - 8 and not self._keep_all]:
-                    del self._cache[old]
-        if view >= len(images):
+            frames = self._cache.get(k)
+            if frames is None:
+                frames = self._render(k)
+                self._cache[k] = frames
+                while not self._keep_all and len(self._cache) > self.KEEP:
+                    del self._cache[next(iter(self._cache))]
+        if view >= len(frames):
             raise StereotrackError(
-                f"sim:{self.preset} has {len(images)} cameras; view={view} does not exist (use view=0..{len(images) - 1})"
+                f"sim:{self.preset} has {len(frames)} cameras; view={view} does not exist (use view=0..{len(frames) - 1})"
             )
-        return images[view]
+        return frames[view]
 
 
 def _make_renderer(preset: str, width: int, height: int, fps: float):
@@ -162,7 +183,10 @@ class SimulatedCamera:
     ``grab`` blocks until the next frame is due (like a real device), skipping
     frames the host was too slow to take (a real camera overwrites its buffer);
     ``retrieve`` renders it. With ``stop_after`` the camera hangs after that
-    many seconds, like an unplugged webcam whose ``read`` never returns.
+    many seconds, like an unplugged webcam whose ``read`` never returns
+    (``interrupt()`` ends the hang). Set to MJPG (CAP_PROP_FOURCC) it sends
+    JPEGs: decoded by ``retrieve``, or as the raw byte buffer when
+    CAP_PROP_CONVERT_RGB is 0, as OpenCV's V4L2 backend does for webcams.
     """
 
     finite = False
@@ -190,6 +214,7 @@ class SimulatedCamera:
         self._grabbed: int | None = None
         self._grab_time = 0.0
         self._released = threading.Event()
+        self._props[cv2.CAP_PROP_CONVERT_RGB] = 1.0
 
     def isOpened(self) -> bool:
         return not self._released.is_set()
@@ -198,8 +223,11 @@ class SimulatedCamera:
         if prop in (cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT, cv2.CAP_PROP_FPS) and self._scene is None:
             self._props[prop] = float(value)
             return True
+        if prop in (cv2.CAP_PROP_FOURCC, cv2.CAP_PROP_CONVERT_RGB) and self._scene is not None:
+            return False  # fixed once the scene is built, like a streaming webcam's format
         if prop in (
             cv2.CAP_PROP_FOURCC,
+            cv2.CAP_PROP_CONVERT_RGB,
             cv2.CAP_PROP_EXPOSURE,
             cv2.CAP_PROP_AUTO_EXPOSURE,
             cv2.CAP_PROP_GAIN,
@@ -220,11 +248,15 @@ class SimulatedCamera:
     def fps(self) -> float:
         return self._props[cv2.CAP_PROP_FPS]
 
+    @property
+    def sends_jpeg(self) -> bool:
+        return int(self._props.get(cv2.CAP_PROP_FOURCC, 0)) == cv2.VideoWriter_fourcc(*"MJPG")
+
     def prepare(self) -> None:
         """Build (and with ``loop``, pre-render) the scene now, before the clock starts; size and fps are then fixed."""
         if self._scene is None:
             w, h = int(self._props[cv2.CAP_PROP_FRAME_WIDTH]), int(self._props[cv2.CAP_PROP_FRAME_HEIGHT])
-            self._scene = _SharedScene.get(self.preset, w, h, self.fps, self.loop)
+            self._scene = _SharedScene.get(self.preset, w, h, self.fps, self.loop, self.sends_jpeg)
 
     def grab(self) -> bool:
         if self._released.is_set():
@@ -257,10 +289,21 @@ class SimulatedCamera:
     def retrieve(self) -> tuple[bool, np.ndarray | None]:
         if self._grabbed is None or self._scene is None:
             return False, None
-        return True, self._scene.image(self._grabbed, self.view).copy()
+        frame = self._scene.frame(self._grabbed, self.view)
+        if not self._scene.jpeg:
+            return True, frame.copy()
+        if self._props[cv2.CAP_PROP_CONVERT_RGB]:
+            from ..recording import decode_jpeg
+
+            return True, decode_jpeg(frame)
+        return True, np.frombuffer(frame, np.uint8).reshape(1, -1).copy()
 
     def read(self) -> tuple[bool, np.ndarray | None]:
         return self.retrieve() if self.grab() else (False, None)
+
+    def interrupt(self) -> None:
+        """End a hang (``stop``): the current or next ``grab`` returns False."""
+        self._released.set()
 
     def release(self) -> None:
         self._released.set()
@@ -270,7 +313,15 @@ class SimulatedCamera:
 
 
 class VideoFileCamera:
-    """A video file that delivers its frames at the file's frame rate, as a camera would."""
+    """A video file that delivers its frames at the file's frame rate, as a camera would.
+
+    Each frame is stamped with the moment it was due (CAP_PROP_POS_MSEC, on the
+    monotonic clock, like a webcam's buffer timestamp), and a frame more than
+    ``BUFFERED`` periods late is skipped, as a camera's driver overwrites frames
+    nobody took: two files played together stay in step however busy the host is.
+    """
+
+    BUFFERED = 2  # frames a webcam's driver holds (open_webcam asks for 2 buffers)
 
     finite = True  # its end is the end of the input, not an unplugged camera
 
@@ -280,6 +331,9 @@ class VideoFileCamera:
         self._fps = self._cap.get(cv2.CAP_PROP_FPS) or 30.0
         self._start: float | None = None
         self._k = 0
+        self.skipped = 0  # frames skipped because the host took them too late
+        self._due = 0.0
+        self._interrupted = threading.Event()
 
     def isOpened(self) -> bool:
         return self._cap.isOpened()
@@ -288,16 +342,29 @@ class VideoFileCamera:
         return False  # a file's size and rate are what they are
 
     def get(self, prop: int) -> float:
+        if prop == cv2.CAP_PROP_POS_MSEC:
+            return self._due * 1000.0  # when the frame was due: the capture time a camera would report
         return self._fps if prop == cv2.CAP_PROP_FPS else self._cap.get(prop)
 
     def grab(self) -> bool:
         now = time.monotonic()
         if self._start is None:
             self._start = now
-        due = self._start + self._k / self._fps
-        if due > now:
-            time.sleep(due - now)
+        period = 1.0 / self._fps
+        # Late by more than the driver's buffers: those frames were overwritten. At most that many go per
+        # frame delivered, so a host that decodes slower than the frame rate still gets frames, not the end.
+        for _ in range(self.BUFFERED):
+            if time.monotonic() - (self._start + self._k * period) <= self.BUFFERED * period:
+                break
+            if self._interrupted.is_set() or not self._cap.grab():
+                return False
+            self._k += 1
+            self.skipped += 1
+        due = self._start + self._k * period
+        if due > now and self._interrupted.wait(due - now):
+            return False
         self._k += 1
+        self._due = due
         return self._cap.grab()
 
     def retrieve(self) -> tuple[bool, np.ndarray | None]:
@@ -305,6 +372,10 @@ class VideoFileCamera:
 
     def read(self) -> tuple[bool, np.ndarray | None]:
         return self.retrieve() if self.grab() else (False, None)
+
+    def interrupt(self) -> None:
+        """Make the current or next ``grab`` return False at once (the capture thread is stopping)."""
+        self._interrupted.set()
 
     def release(self) -> None:
         self._cap.release()
@@ -358,6 +429,9 @@ def open_device(spec: str, slot: int = 0, settings: CaptureSettings = CaptureSet
             cam.set(cv2.CAP_PROP_FRAME_HEIGHT, settings.height)
         if settings.fps:
             cam.set(cv2.CAP_PROP_FPS, settings.fps)
+        if settings.fourcc:
+            cam.set(cv2.CAP_PROP_FOURCC, cv2.VideoWriter_fourcc(*settings.fourcc[:4].ljust(4)))
+            cam.set(cv2.CAP_PROP_CONVERT_RGB, 0)  # the JPEGs undecoded, as open_webcam asks of webcams
         cam.prepare()
         return cam
     if spec.lstrip("-").isdigit():
@@ -398,6 +472,10 @@ def open_webcam(index: int, settings: CaptureSettings = CaptureSettings(), quiet
     if settings.white_balance is not None:
         cap.set(cv2.CAP_PROP_AUTO_WB, 0)
         cap.set(cv2.CAP_PROP_WB_TEMPERATURE, settings.white_balance)
+    if fourcc_text(cap.get(cv2.CAP_PROP_FOURCC)) == "MJPG":
+        # The JPEGs as the camera sent them (OpenCV's V4L2 backend then returns the raw buffer):
+        # a recording stores them as they are, and only the frames tracked are decoded.
+        cap.set(cv2.CAP_PROP_CONVERT_RGB, 0)
     return cap
 
 

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..frames import FramePair
+from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import Recording, open_recording
-from .cameras import CameraStats, SourceStats
 
 
 def paced(
@@ -45,7 +44,11 @@ def paced(
 
 
 class RecordingSource:
-    """A recording folder as a source: as fast as possible, or at its recorded pace (``realtime``)."""
+    """A recording folder as a source: as fast as possible, or at its recorded pace (``realtime``).
+
+    ``only``: just these frames (in order), e.g. those a ``live`` run tracked (``Recording.tracked_frames``).
+    ``stats.pairs_dropped`` counts the frames ``realtime`` skipped because the consumer was late.
+    """
 
     def __init__(
         self,
@@ -55,6 +58,7 @@ class RecordingSource:
         start: int = 0,
         stop: int | None = None,
         skip_late: bool = True,
+        only: Sequence[int] | None = None,
     ):
         self.recording = recording if isinstance(recording, Recording) else open_recording(recording, calib)
         self.realtime = realtime
@@ -62,17 +66,20 @@ class RecordingSource:
         self.fps = self.recording.fps
         self.camera_names = self.recording.camera_names
         self._start, self._stop = start, stop
-        self.n_frames = len(range(self.recording.n_frames)[start:stop])
+        span = range(self.recording.n_frames)[start:stop]
+        self._only = None if only is None else np.asarray([i for i in only if i in span], dtype=int)
+        self.n_frames = len(span) if self._only is None else len(self._only)
         self.skip_late = skip_late
         self._delivered = 0
         self._skipped = 0
         self._frames: Iterator[FramePair] | None = None
 
     def __iter__(self) -> Iterator[FramePair]:
-        frames = self.recording.frames(self._start, self._stop)
+        frames = self.recording.frames(self._start, self._stop, only=self._only)
         self._frames = frames
         if self.realtime:
-            frames = paced(frames, self.recording.timestamps[self._start : self._stop], self.skip_late, on_skip=self._count_skip)
+            rows = self.recording.timestamps[self._start : self._stop] if self._only is None else self.recording.timestamps[self._only]
+            frames = paced(frames, rows, self.skip_late, on_skip=self._count_skip)
         for pair in frames:
             self._delivered += 1
             yield pair

@@ -1,41 +1,123 @@
-"""Stopping cleanly: SIGINT and SIGTERM ask a source to stop, so the loop ends and closes its files."""
+"""Stopping on SIGINT and SIGTERM, cleanly, from the first moment to the last.
+
+``install()`` (the first thing ``stereotrack`` does) sets explicit handlers for
+both signals, as ffmpeg does: a program started in the background by a script
+inherits SIGINT ignored, and Python's default for SIGTERM is to die without
+closing any file. Outside a ``StopOnSignals`` block a signal raises
+``Interrupted`` (a KeyboardInterrupt): ``finally`` blocks close files and the
+command line prints one line. Inside one (the capture and tracking loops) the
+first signal only asks the loop to stop: the loop ends after the frame in hand,
+sources stop, sinks are finalised. Setup before a loop runs inside the block
+too, so a signal during it ends the command as soon as its loop starts, with
+nothing half-written. A second signal interrupts at once.
+"""
 
 from __future__ import annotations
 
+import signal
 import threading
+from collections.abc import Callable
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupted(KeyboardInterrupt):
+    """Raised by a stop signal outside a StopOnSignals block (or by a second one inside)."""
+
+    def __init__(self, signal_name: str = "SIGINT"):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+    @property
+    def exit_status(self) -> int:
+        return 128 + int(signal.Signals[self.signal_name])
+
+
+class _State:
+    installed = False
+    starting = False  # the command line is still loading: note a signal, act on it once main() runs
+    pending: str | None = None
+    previous: dict = {}
+    scopes: list[StopOnSignals] = []
+
+
+def _handle(signum, frame) -> None:
+    name = signal.Signals(signum).name
+    if _State.starting:
+        _State.pending = _State.pending or name
+        return
+    if not _State.scopes or _State.scopes[-1].requested:
+        raise Interrupted(name)
+    for scope in list(_State.scopes):  # nested blocks (a command's and its loop's) all learn of it
+        if not scope.requested:
+            scope._request(name)
+
+
+def install(starting: bool = False) -> bool:
+    """Handle SIGINT and SIGTERM explicitly (main thread only); True if installed now.
+
+    ``starting`` (the package loading as the command line): a signal is only noted
+    until ``act_on_pending()`` runs, so no half-imported module raises it.
+    """
+    if starting and not _State.installed:
+        _State.starting = True
+    if _State.installed or threading.current_thread() is not threading.main_thread():
+        return False
+    for sig in STOP_SIGNALS:
+        _State.previous[sig] = signal.signal(sig, _handle)
+    _State.installed = True
+    return True
+
+
+def act_on_pending() -> None:
+    """End the start-up phase: a signal that came while the command line loaded interrupts now."""
+    _State.starting = False
+    if _State.pending is not None:
+        name, _State.pending = _State.pending, None
+        raise Interrupted(name)
+
+
+def uninstall() -> None:
+    for sig, handler in _State.previous.items():
+        signal.signal(sig, handler)
+    _State.previous = {}
+    _State.installed = False
 
 
 class StopOnSignals:
-    """While active, SIGINT and SIGTERM ask ``source`` to stop instead of killing the program.
+    """While active, the first SIGINT/SIGTERM asks the loop to stop instead of interrupting it.
 
-    The loop consuming the source then ends normally and closes its files. A
-    second signal restores the default behaviour (a second Ctrl-C interrupts).
+    ``callbacks`` (e.g. a source's ``request_stop``) are called from the handler;
+    loops poll ``requested``. ``signal_name`` says which signal it was.
     """
 
-    def __init__(self, source):
-        self.source = source
+    def __init__(self, *callbacks: Callable[[], None]):
+        self.callbacks = list(callbacks)
         self.signal_name: str | None = None
-        self._previous: dict = {}
+        self._installed_here = False
 
-    def _handle(self, signum, frame) -> None:
-        import signal
+    @property
+    def requested(self) -> bool:
+        return self.signal_name is not None
 
-        self.signal_name = signal.Signals(signum).name
-        self.source.request_stop()
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
+    def add(self, callback: Callable[[], None]) -> None:
+        """Also call ``callback`` on a stop (at once if a stop was already asked)."""
+        self.callbacks.append(callback)
+        if self.requested:
+            callback()
+
+    def _request(self, name: str) -> None:
+        self.signal_name = name
+        for cb in self.callbacks:
+            cb()
 
     def __enter__(self) -> StopOnSignals:
-        import signal
-
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._previous[sig] = signal.signal(sig, self._handle)
+        self._installed_here = install()
+        _State.scopes.append(self)
         return self
 
     def __exit__(self, *exc) -> None:
-        import signal
-
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
-        self._previous = {}
+        if self in _State.scopes:
+            _State.scopes.remove(self)
+        if self._installed_here:
+            uninstall()

@@ -26,48 +26,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--em", choices=["numpy", "sklearn"], default="numpy", help="EM implementation to time")
 
 
-def _floor(images, targets):
-    import cv2
-
-    from ..evidence.colour import target_mask
-
-    for img in images:
-        hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
-        for t in targets:
-            target_mask(hsv, t)
-
-
-def bench_case(frames, rig, config, warmup: int = 10) -> dict[str, float]:
-    import time
-
-    import numpy as np
-
-    from ..pipeline.tracker import Tracker
-
-    tracker = Tracker(rig, config)
-    floor_ms, step_ms, stages = [], [], {}
-    for i, pair in enumerate(frames):
-        t0 = time.perf_counter()
-        _floor(pair.images, config.targets)
-        t1 = time.perf_counter()
-        res = tracker.step(pair)
-        if i < warmup:
-            continue
-        floor_ms.append(1e3 * (t1 - t0))
-        step_ms.append(res.timings_ms["step"])
-        for k, v in res.timings_ms.items():
-            stages.setdefault(k, []).append(v)
-    out = {k: float(np.median(v)) for k, v in stages.items()}
-    out["floor"] = float(np.median(floor_ms))
-    out["ratio"] = float(np.median(np.array(step_ms) / np.array(floor_ms)))
-    return out
-
-
 def run(args) -> int:
     from dataclasses import replace
 
     from ..console import Progress
     from ..frames import FramePair
+    from ..pipeline.bench import bench_case
     from ..simulation.presets import make_preset
     from ..simulation.render import SceneRenderer
 

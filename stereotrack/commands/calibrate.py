@@ -229,19 +229,20 @@ def _live_views(args, board, progress, keep_images, viewer):
     specs = camera_specs(args)
     if args.names and len(args.names) != len(specs):
         raise StereotrackError(f"--names gives {len(args.names)} names for {len(specs)} cameras")
-    source = CameraPairSource(
-        specs, camera_names=args.names, settings=capture_settings(args), queue_size=2, stall_timeout=args.stall_timeout
-    )
-    start = time.monotonic()
+    with StopOnSignals() as stopper:  # a signal, even while the cameras open, ends the capture cleanly
+        source = CameraPairSource(
+            specs, camera_names=args.names, settings=capture_settings(args), queue_size=2, stall_timeout=args.stall_timeout
+        )
+        stopper.add(source.request_stop)
+        start = time.monotonic()
 
-    def frames():
-        for pair in source:
-            if args.seconds is not None and time.monotonic() - start > args.seconds:
-                return
-            yield pair
+        def frames():
+            for pair in source:
+                if args.seconds is not None and time.monotonic() - start > args.seconds:
+                    return
+                yield pair
 
-    print("hold the board still in view of both cameras; move it to a new place and angle after each view is taken (Ctrl-C to finish)")
-    with StopOnSignals(source):
+        print("hold the board still in view of both cameras; move it to a new place and angle after each view is taken (Ctrl-C to finish)")
         try:
             return views_from_frames(
                 board,

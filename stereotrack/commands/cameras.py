@@ -85,9 +85,10 @@ def check_sync(specs: list[str], settings, seconds: float, stall_timeout: float)
     from ..capture.signals import StopOnSignals
     from ..errors import StereotrackError
 
-    source = CameraPairSource(specs, settings=settings, queue_size=64, stall_timeout=stall_timeout)
     spreads, size = [], None
-    with StopOnSignals(source):
+    with StopOnSignals() as stopper:
+        source = CameraPairSource(specs, settings=settings, queue_size=64, stall_timeout=stall_timeout)
+        stopper.add(source.request_stop)
         try:
             start = time.monotonic()
             for pair in source:

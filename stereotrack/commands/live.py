@@ -6,8 +6,9 @@ delay never grows). One status line on stderr shows the tracker's frames/s, the
 grab-to-estimate latency and the cameras' frames/s; the summary at the end gives
 the latency's median and 95th percentile.
 
---record DIR also writes the pairs the tracker saw as a recording, so the session
-can be replayed exactly: `stereotrack track DIR --realtime`.
+--record DIR also records every pair the cameras delivered (not only those the tracker
+had time for) and notes which ones it tracked (tracked.csv): `stereotrack track DIR`
+then replays exactly the live run's frames and gives the same tracks.
 
 Simulated cameras (sim:PRESET on every camera) need neither --calib nor --config:
 the scene's rig and targets are used.
@@ -33,11 +34,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", metavar="FILE", help="target/tracker config YAML (required unless every camera is sim:)")
     parser.add_argument("--out", metavar="CSV", help="write the tracks to this CSV (formats.md section 3)")
     parser.add_argument("--record", metavar="DIR", help="also record the frame pairs the tracker saw into this recording folder")
-    parser.add_argument("--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec for --record (default ffv1, lossless)")
+    parser.add_argument(
+        "--codec", choices=("mjpg", "ffv1"), default="mjpg", help="video codec for --record (see `stereotrack record --help`)"
+    )
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
-    from ..sinks.viewer.flags import add_viz_arguments
+    from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(parser)
 
@@ -88,8 +91,11 @@ class LatencySink:
         self.progress.close()
 
 
-def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = True):
-    """Track ``source`` until it ends, Ctrl-C/SIGTERM, or ``seconds``; returns (RunSummary, latencies in s)."""
+def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = True, recorder=None):
+    """Track ``source`` until it ends, Ctrl-C/SIGTERM, or ``seconds``; returns (RunSummary, latency sink).
+
+    The source stops before ``recorder`` (fed by the source, not the tracker) is finalised.
+    """
     import time
 
     from ..capture.signals import StopOnSignals
@@ -104,11 +110,15 @@ def run_live(source, tracker, sinks, seconds: float | None = None, show: bool = 
             if seconds is not None and time.monotonic() - start >= seconds:
                 return
 
-    with StopOnSignals(source):
-        try:
+    try:
+        with StopOnSignals(source.request_stop):
             summary = run_pipeline(frames(), tracker, [latency, *sinks], progress=False)
-        finally:
-            source.close()
+    finally:
+        source.close()
+        if recorder is not None:
+            recorder.close()
+    if recorder is not None:
+        recorder.check()
     return summary, latency
 
 
@@ -116,13 +126,9 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..camera import load_rig
-    from ..capture.cameras import CameraPairSource
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
-    from ..sinks.recorder import RecordingSink
-    from ..sinks.tracks_csv import TracksCsvSink
-    from .track import make_tracker
 
     specs = camera_specs(args)
     settings = capture_settings(args)
@@ -149,55 +155,77 @@ def run(args: argparse.Namespace) -> int:
                 f"camera {cam.name} is calibrated for {cam.width}x{cam.height}; pass --width {cam.width} --height {cam.height}"
             )
 
-    sinks = []
-    if args.out:
-        sinks.append(TracksCsvSink(args.out))
-    from ..sinks.viewer.flags import make_viz_sink
+    from ..capture.signals import StopOnSignals
 
-    viz = make_viz_sink(args, rig, config, recording_name="live", live=True)
-    if viz is not None:
-        sinks.append(viz)
-    recorder = None
-    if args.record:
-        from pathlib import Path
-
-        out = Path(args.record)
-        if out.exists() and any(out.iterdir()):
-            raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
-        from ..config import config_to_dict
-
-        # the pairs the tracker saw, with the rig and targets in force: a replay is exact
-        recorder = RecordingSink(
-            out,
-            [c.name for c in rig.cameras],
-            settings.fps or 30.0,
-            rig=rig,
-            codec=args.codec,
-            source="live",
-            targets=config_to_dict(config),
-            extra_meta={"devices": dict(zip([c.name for c in rig.cameras], specs))},
-        )
-        sinks.append(recorder)
-
-    # queue_size=1: the tracker always gets the newest pair; latency cannot build up
-    source = CameraPairSource(specs, [c.name for c in rig.cameras], settings, rig=rig, queue_size=1, stall_timeout=args.stall_timeout)
-    tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
-    summary, latency = run_live(source, tracker, sinks, args.seconds, show=not args.quiet)
+    with StopOnSignals() as stopper:  # a signal from here on ends the session cleanly, even during setup
+        source, recorder, summary, latency, viz = _live_session(args, specs, settings, rig, config, stopper)
 
     stats = source.stats
     lat = np.asarray(latency.latencies) * 1000
     if len(lat):
         third = max(1, len(lat) // 3)
         info(
-            f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s; tracker step median {summary.median_step_ms:.1f} ms); "
+            f"tracked {summary.frames} of {stats.formed} pairs in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s; "
+            f"tracker step median {summary.median_step_ms:.1f} ms); {stats.formed - summary.frames} skipped while the tracker was busy; "
             f"grab-to-estimate latency median {np.median(lat):.0f} ms, 95% {np.percentile(lat, 95):.0f} ms "
             f"(first third {np.median(lat[:third]):.0f} ms, last third {np.median(lat[-third:]):.0f} ms); "
-            f"{stats.pairs_dropped} pairs dropped while the tracker was busy, unpaired frames {'/'.join(str(c.unpaired) for c in stats.cameras)}"
+            f"unpaired frames {'/'.join(str(c.unpaired) for c in stats.cameras)}"
         )
+    if stopper.signal_name:
+        info(f"stopped by {stopper.signal_name}")
     if args.out:
         info(f"tracks written to {args.out}")
     if recorder is not None:
-        info(f"{recorder.count} pairs recorded in {args.record}; replay with: stereotrack track {args.record} --realtime")
+        lost = f", {stats.not_recorded} lost because the disk was too slow" if stats.not_recorded else ""
+        info(f"{recorder.count} pairs recorded in {args.record}{lost}; replay the live run exactly with: stereotrack track {args.record}")
     if viz is not None and getattr(viz, "rrd_path", None):
         info(f"rerun recording written to {viz.rrd_path}; open it with: rerun {viz.rrd_path}")
     return 0
+
+
+def _live_session(args, specs, settings, rig, config, stopper):
+    from pathlib import Path
+
+    from ..capture.cameras import CameraPairSource
+    from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
+    from ..recording import JPEG_QUALITY
+    from ..sinks.recorder import RecordingSink, TrackedFramesSink
+
+    names = [c.name for c in rig.cameras]
+    recorder = None
+    if args.record:
+        from ..config import config_to_dict
+
+        out = Path(args.record)
+        if out.exists() and any(out.iterdir()):
+            raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
+        # every pair the cameras delivered, with the rig and targets in force; tracked.csv says which were tracked
+        recorder = RecordingSink(
+            out,
+            names,
+            settings.fps or 30.0,
+            rig=rig,
+            codec=args.codec,
+            source="live",
+            targets=config_to_dict(config),
+            extra_meta={"devices": dict(zip(names, specs))},
+        )
+    tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
+    extra = [TrackedFramesSink(recorder)] if recorder is not None else []
+    sinks = open_sinks(args, rig, config, tracks_csv=Path(args.out) if args.out else None, live=True, extra=extra)
+    viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
+    # queue_size=1: the tracker always gets the newest pair; latency cannot build up
+    source = CameraPairSource(
+        specs,
+        names,
+        settings,
+        rig=rig,
+        queue_size=1,
+        stall_timeout=args.stall_timeout,
+        recorder=recorder,
+        jpeg_quality=JPEG_QUALITY if recorder is not None and args.codec == "mjpg" else None,
+    )
+    stopper.add(source.request_stop)
+    summary, latency = run_live(source, tracker, sinks, args.seconds, show=not args.quiet, recorder=recorder)
+    return source, recorder, summary, latency, viz

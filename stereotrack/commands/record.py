@@ -31,7 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument(
-        "--codec", choices=("ffv1", "mjpg"), default="ffv1", help="video codec: ffv1 lossless .mkv (default) or mjpg .avi (smaller, lossy)"
+        "--codec",
+        choices=("mjpg", "ffv1"),
+        default="mjpg",
+        help="mjpg (default): the JPEGs an MJPG camera sends, stored as they are (other frames encoded at quality 95); "
+        "ffv1: lossless, about 20x larger and too slow for 720p",
     )
     parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
     add_camera_arguments(parser)
@@ -45,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from ..capture.signals import StopOnSignals
     from ..console import Progress, info
     from ..errors import StereotrackError
+    from ..recording import JPEG_QUALITY
     from ..sinks.recorder import RecordingSink
 
     specs = camera_specs(args)
@@ -55,43 +60,63 @@ def run(args: argparse.Namespace) -> int:
     if args.seconds is not None and args.seconds <= 0:
         raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
     rig = load_rig(args.calib) if args.calib else None
-
-    source = CameraPairSource(specs, settings=settings, rig=rig, queue_size=64, stall_timeout=args.stall_timeout)
     simulated = all(s.startswith("sim:") for s in specs)
-    sink = RecordingSink(
-        out,
-        source.camera_names,
-        source.fps,
-        rig=rig,
-        codec=args.codec,
-        overwrite=args.overwrite,
-        source="simulated cameras" if simulated else "live",
-        extra_meta={"devices": dict(zip(source.camera_names, specs))},
-    )
-    total = round(args.seconds * source.fps) if args.seconds else None
-    progress = Progress(total, label="recording", unit="pairs")
-    error = None
-    first = None
-    with StopOnSignals(source) as stopper:
+    targets = None
+    if simulated and rig is None and not any(s.startswith("sim:dots") for s in specs):
+        from ..config import config_to_dict
+        from .live import simulated_scene
+
+        rig, config = simulated_scene(specs, settings)  # the scene's rig and targets: the recording can be tracked as it is
+        targets = config_to_dict(config)
+
+    with StopOnSignals() as stopper:  # from here on a signal ends the recording cleanly, even during setup
+        names = [f"cam{i}" for i in range(len(specs))]
+        sink = RecordingSink(
+            out,
+            names,
+            settings.fps or 30.0,
+            rig=rig,
+            codec=args.codec,
+            overwrite=args.overwrite,
+            source="simulated cameras" if simulated else "live",
+            targets=targets,
+            extra_meta={"devices": dict(zip(names, specs))},
+        )
+        source = CameraPairSource(
+            specs,
+            names,
+            settings=settings,
+            rig=rig,
+            queue_size=0,
+            stall_timeout=args.stall_timeout,
+            recorder=sink,
+            jpeg_quality=JPEG_QUALITY if args.codec == "mjpg" else None,
+            seconds=args.seconds,
+        )
+        stopper.add(source.request_stop)
+        total = round(args.seconds * source.fps) if args.seconds else None
+        progress = Progress(total, label="recording", unit="pairs")
+        error = None
         try:
-            for pair in source:
-                first = pair.time if first is None else first
-                sink.write_pair(pair)
-                progress.update(1, extra=source.stats.line())
-                if args.seconds is not None and pair.time - first >= args.seconds - 1.5 / source.fps:  # n pairs span n - 1 periods
-                    break
+            while source.wait(0.2):
+                progress.update(sink.count - progress.done, extra=source.stats.line())
         except StereotrackError as exc:
             error = exc
         finally:
-            source.close()
-            sink.close()
-            progress.close()
+            source.close()  # capture threads stop first, then the writer finishes the queue
+            try:
+                sink.close()
+            finally:
+                progress.close()
+        if error is None:
+            sink.check()
+    stats = source.stats
     how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "stopped" if error else "done"
-    info(f"{how}: {sink.count} pairs in {out} ({source.stats.line()})")
+    info(f"{how}: {sink.count} pairs in {out} ({stats.line()})")
     if error is not None:
         kept = f"{sink.count} pairs kept in {out}" if sink.count else "nothing was recorded"
         raise StereotrackError(f"{error}; recording stopped, {kept}")
-    if sink.count == 0:
+    if sink.count == 0 and not stopper.signal_name:
         raise StereotrackError(
             "no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)"
         )

@@ -31,9 +31,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--start", type=int, default=0, help="first frame (default 0)")
     p.add_argument("--frames", type=int, help="track at most this many frames")
-    p.add_argument("--realtime", action="store_true", help="play the recording at its recorded pace, as a live camera would")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="play the recording at its recorded pace, as a live camera would (late frames are skipped and counted)",
+    )
+    p.add_argument(
+        "--all-frames",
+        action="store_true",
+        help="a `live --record` recording: track every recorded frame, not only those the live run tracked",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    from ..sinks.viewer.flags import add_viz_arguments
+    from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(p)
 
@@ -62,25 +71,27 @@ def with_recording_up(config, recording):
     return replace(config, tracks=replace(config.tracks, up=up_axis(up, f"{recording.folder / 'meta.yaml'}: 'up'")))
 
 
-def make_tracker(method: str, rig, config, keep_rays: bool = False):
-    if method == "baseline":
-        from ..pipeline.baseline import BaselineTracker
-
-        return BaselineTracker(rig, config)
-    from ..console import notice_if_slow
-    from ..pipeline.tracker import Tracker
-
-    with notice_if_slow("compiling the tracker's kernels (first run on this machine only: up to a minute) ..."):
-        return Tracker(rig, config, keep_rays=keep_rays)
-
-
 def track_recording(args, default_out: Path | None = None) -> int:
-    """Shared by `track` and `demo`."""
+    """Shared by `track` and `demo`. A signal stops it cleanly: outputs complete up to the last frame tracked."""
+    from ..capture.signals import Interrupted, StopOnSignals
+
+    with StopOnSignals() as stopper:
+        status = _track(args, default_out, stopper)
+    if stopper.signal_name:
+        raise Interrupted(stopper.signal_name)  # the outputs are closed; the command line says "interrupted"
+    return status
+
+
+def _track(args, default_out: Path | None, stopper) -> int:
+    import numpy as np
+
+    from ..capture.replay import RecordingSource
     from ..console import info, warn
     from ..errors import StereotrackError
+    from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import run_pipeline
     from ..recording import open_recording, read_truth
-    from ..sinks.tracks_csv import TracksCsvSink, read_tracks
+    from ..sinks.tracks_csv import read_tracks
 
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
@@ -88,51 +99,68 @@ def track_recording(args, default_out: Path | None = None) -> int:
     if args.start < 0 or args.start >= max(rec.n_frames, 1):
         raise StereotrackError(f"--start {args.start} is outside the recording's {rec.n_frames} frames")
     stop = rec.n_frames if args.frames is None else min(rec.n_frames, args.start + args.frames)
+    wanted = np.arange(args.start, stop)
+    if rec.tracked_frames is not None and not getattr(args, "all_frames", False):
+        # a live run's recording: replay exactly the frames the live tracker had time for
+        wanted = np.unique(rec.tracked_frames[(rec.tracked_frames >= args.start) & (rec.tracked_frames < stop)])
+        info(f"replaying the {len(wanted)} frames the live run tracked, of {stop - args.start} recorded (--all-frames tracks every frame)")
     out = Path(args.out) if args.out else (default_out or rec.folder / "tracks.csv")
     truth = read_truth(rec.truth_path) if rec.truth_path else None
     tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
-    sinks = [TracksCsvSink(out)]
-    from ..sinks.viewer.flags import make_viz_sink
-
-    viz_sink = make_viz_sink(args, rig, config, truth=truth)  # None when no viewer flag is given
-    if viz_sink is not None:
-        sinks.append(viz_sink)
-    frames = rec.frames(args.start, stop)
-    if args.realtime:
-        from ..capture.replay import paced
-
-        frames = paced(frames, rec.timestamps[args.start : stop])
+    sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth)
+    viz_sink = next((s for s in sinks if hasattr(s, "rrd_path")), None)
+    only = None if len(wanted) == stop - args.start else wanted
+    source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop, only=only)
     objects_seen = {t.name: 0 for t in config.targets}
+    tracked: list[int] = []
 
     class _Counter:
         def write(self, result):
+            tracked.append(result.frame.index)
             for o in result.objects:
                 objects_seen[o.target] += 1
 
         def close(self):
             pass
 
-    summary = run_pipeline(frames, tracker, [*sinks, _Counter()], progress=not args.quiet, total=stop - args.start)
+    def until_stopped(pairs):
+        for pair in pairs:
+            if stopper.requested:
+                break
+            yield pair
+
+    try:
+        summary = run_pipeline(until_stopped(source), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted))
+    finally:
+        source.close()  # the readers stop before anything else
+    skipped = source.stats.pairs_dropped
     for name, count in objects_seen.items():
-        if count == 0:
+        if count == 0 and not stopper.requested:
             warn(
                 f"target {name!r} matched nothing in the whole recording: check its HSV range ('stereotrack colour learn') and the lighting"
             )
+    not_tracked = []
+    if skipped:
+        not_tracked.append(f"{skipped} skipped because the tracker ran late (--realtime)")
+    if stopper.requested:
+        not_tracked.append(f"stopped by {stopper.signal_name}")
+    untracked = f" ({'; '.join(not_tracked)})" if not_tracked else ""
+    of = f" of {len(wanted)}" if summary.frames != len(wanted) else ""  # the summary says so when frames were left out
     info(
-        f"tracked {summary.frames} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
-        f"tracker step median {summary.median_step_ms:.1f} ms): {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
+        f"tracked {summary.frames}{of} frames in {summary.seconds:.1f} s ({summary.fps:.1f} frames/s including decoding; "
+        f"tracker step median {summary.median_step_ms:.1f} ms){untracked}: {summary.tracks_seen} tracks, up to {summary.max_objects} at once"
     )
     info(f"tracks written to {out}")
-    if truth is not None and summary.frames:
+    if truth is not None and tracked:
         from ..evaluate import evaluate
 
         try:
             tracks = read_tracks(out)
-            frames_range = list(range(args.start, args.start + summary.frames))
-            truth_in = truth[(truth[:, 0] >= args.start) & (truth[:, 0] < args.start + summary.frames)]
-            ev = evaluate(tracks, truth_in, frames=frames_range)
+            truth_in = truth[np.isin(truth[:, 0], tracked)]
+            ev = evaluate(tracks, truth_in, frames=tracked)
+            scope = f" (scored over the {len(tracked)} frames tracked)" if len(tracked) < stop - args.start else ""
             info(
-                f"against the recording's truth.csv: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
+                f"against the recording's truth.csv{scope}: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
                 f"recall {ev.recall:.3f}, precision {ev.precision:.3f}, mean 3D error {ev.mean_error_mm:.1f} mm"
             )
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it

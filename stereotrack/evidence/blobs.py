@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..kernels import component_boxes, mask_moments
+from .kernels import component_boxes, mask_moments
 
 
 @dataclass(frozen=True, eq=False)

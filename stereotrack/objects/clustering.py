@@ -28,29 +28,35 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..camera import Camera, stacked_kernel_arrays
-from ..kernels import (
-    greedy_seeds,
-    hard_labels,
-    keep_heavy,
-    label_moments,
-    merge_one_ball_clusters,
-    projected_spreads,
-    systematic_resample,
-    weighted_em,
-)
+from ..config import TrackerSettings
+from ..particles.resampling import systematic_indices
+from .kernels import greedy_seeds, hard_labels, keep_heavy, label_moments, merge_one_ball_clusters, projected_spreads, weighted_em
 
 
 @dataclass(frozen=True)
 class ClusterSettings:
+    """What clustering needs of the tracker's settings (config.TrackerSettings) for one target: defaults are theirs."""
+
     radius: float  # ball radius R, metres
-    min_likelihood: float = 0.05
-    min_mass: float = 0.01
-    min_particles: int = 8
-    max_objects: int = 12
-    em_iterations: int = 4
-    em_points: int = 250  # EM runs on at most this many particles, resampled by weight
-    split_factor: float = 1.0  # split when the projected spread (std) exceeds this many apparent radii
-    method: str = "numpy"  # "numpy" (weighted EM) or "sklearn" (GaussianMixture on resampled particles)
+    min_likelihood: float = TrackerSettings.cluster_min_likelihood
+    min_mass: float = TrackerSettings.cluster_min_mass
+    min_particles: int = TrackerSettings.cluster_min_particles
+    max_objects: int = TrackerSettings.max_objects
+    method: str = TrackerSettings.em  # "numpy" (weighted EM) or "sklearn" (GaussianMixture on resampled particles)
+
+    @classmethod
+    def of(cls, tracker: TrackerSettings, radius: float) -> ClusterSettings:
+        return cls(
+            radius, tracker.cluster_min_likelihood, tracker.cluster_min_mass, tracker.cluster_min_particles, tracker.max_objects, tracker.em
+        )
+
+
+ISODATA_ROUNDS = 4  # at most this many rounds of EM then discard / merge / split
+EM_ITERATIONS = 4  # EM steps in the first round
+LATER_EM_ITERATIONS = 2  # EM steps in later rounds: they only settle local changes
+SPLIT_ROUNDS = 2  # splits only in the first rounds, so a cluster cannot split and merge back and forth
+EM_POINTS = 250  # EM runs on at most this many particles, resampled by weight
+SPLIT_FACTOR = 1.0  # split a cluster whose projected spread (std) exceeds this many apparent ball radii
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,17 +92,12 @@ def _sklearn_em(X, w, means, covs, iterations, reg, rng):
     return gm.means_, gm.covariances_, gm.weights_, resp
 
 
-def systematic_indices(weights: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Systematic resampling: n indices drawn with probabilities ``weights`` (summing to 1)."""
-    return systematic_resample(np.ascontiguousarray(weights, dtype=float), n, rng.random())
-
-
 def _views(cameras: Sequence[Camera], X: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Every particle's projection, visibility and focal length over depth, per camera (computed once)."""
     out = []
     for cam in cameras:
         uv, ok, z = cam.view(X)
-        f_over_z = cam.focal_px / np.maximum(z, 1e-6)
+        f_over_z = cam.apparent_radius(1.0, z)  # pixels per metre of ball at each particle's depth
         out.append((uv, ok, f_over_z))
     return out
 
@@ -131,11 +132,11 @@ def cluster_particles(
         return _empty(n)
     X_all, w_all = positions[keep], weights[keep]
     rng = rng or np.random.default_rng(0)
-    if len(X_all) > settings.em_points:
+    if len(X_all) > EM_POINTS:
         # EM on a weight-proportional subsample (systematic, so it keeps the weights' shape) is as
         # accurate for ball-sized clusters and several times cheaper; labels come from all particles.
-        idx = systematic_indices(w_all / w_all.sum(), settings.em_points, rng)
-        X, w = X_all[idx], np.full(settings.em_points, w_all.sum() / settings.em_points)
+        idx = systematic_indices(w_all / w_all.sum(), EM_POINTS, rng)
+        X, w = X_all[idx], np.full(EM_POINTS, w_all.sum() / EM_POINTS)
     else:
         X, w = X_all, w_all
     R = settings.radius
@@ -147,8 +148,8 @@ def cluster_particles(
     if len(means) == 0:
         return _empty(n)
     covs = np.repeat((np.eye(3) * R * R)[None], len(means), axis=0)
-    for _round in range(4):  # ISODATA: EM, then discard / merge / split, until stable
-        iterations = settings.em_iterations if _round == 0 else 2  # later rounds only settle local changes
+    for _round in range(ISODATA_ROUNDS):  # ISODATA: EM, then discard / merge / split, until stable
+        iterations = EM_ITERATIONS if _round == 0 else LATER_EM_ITERATIONS
         if settings.method == "sklearn":
             means, covs, pis, resp = _sklearn_em(X, w, means, covs, iterations, reg, rng)
         else:
@@ -163,14 +164,14 @@ def cluster_particles(
         covs = covs[kept]
         changed = changed or not kept.all()
         # Split every cluster wider than one ball in some camera (early rounds only: no ping-pong).
-        if not changed and _round < 2:
+        if not changed and _round < SPLIT_ROUNDS:
             new_means, new_covs = [], []
             # A cluster whose 3D spread is under one radius cannot look wider than one ball.
-            wide = np.sqrt(np.linalg.eigvalsh(covs)[:, -1]) > settings.split_factor * R
+            wide = np.sqrt(np.linalg.eigvalsh(covs)[:, -1]) > SPLIT_FACTOR * R
             ratios, cams = projected_spreads(uv, ok, f_over_z, w, labels, len(means), R)
             ratios = np.where(wide, ratios, 0.0)
             for k in range(len(means)):
-                split = ratios[k] > settings.split_factor and len(means) + len(new_means) < settings.max_objects
+                split = ratios[k] > SPLIT_FACTOR and len(means) + len(new_means) < settings.max_objects
                 halves = _split_halves(views, X, w, labels == k, cams[k]) if split else None
                 if halves is not None:
                     new_means += list(halves)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..evidence.blobs import Blobs
-from ..kernels import ball_union_mismatch, posterior_depth
+from .kernels import ball_union_mismatch, posterior_depth
 
 
 def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray, others: np.ndarray, radius: float) -> np.ndarray:

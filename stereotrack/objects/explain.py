@@ -35,25 +35,34 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..camera import Camera, triangulate_with_covariance
-from ..evidence.blobs import Blobs
-from ..kernels import blob_signature
-from ..results import Object3D
+from ..camera import triangulate_with_covariance
+from ..config import TrackerSettings
+from ..evidence.gather import CameraEvidence
+from ..results import Object3D, TrackedBalls
 from .discs import RayFit, depth_on_ray, union_mismatch
+from .kernels import blob_signature
 
 
 @dataclass(frozen=True)
 class ExplainSettings:
+    """What explain-away needs of the tracker's settings (config.TrackerSettings) for one target: defaults are theirs."""
+
     radius: float  # ball radius, metres
-    size_tolerance: float = 0.3  # sigma of log(blob radius / expected radius) in the ranking
-    refine_tolerance: float = 0.3  # |log size ratio| below this in every camera allows refinement
-    refine: bool = True
-    track_bonus: float = 3.0  # rank multiplier for objects a confirmed track predicts
-    centroid_sigma_px: float = 0.5  # blob centroid noise, pixels (sets refined objects' covariance)
-    one_view_depth_sigma: float = 0.07  # metres: how little the particles say about depth when only one view is clean
-    disc_fit: bool = True  # place a ball in a shared blob by fitting the union of ball discs to it
-    disc_fit_tolerance: float = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
-    disc_fit_sigma: float = 0.01  # metres: the least depth uncertainty a disc fit claims
+    refine: bool = TrackerSettings.refine
+    disc_fit: bool = TrackerSettings.disc_fit  # place a ball in a shared blob by fitting the union of ball discs to it
+
+    @classmethod
+    def of(cls, tracker: TrackerSettings, radius: float) -> ExplainSettings:
+        return cls(radius, tracker.refine, tracker.disc_fit)
+
+
+SIZE_TOLERANCE = 0.3  # sigma of log(blob radius / expected radius) in the ranking
+REFINE_TOLERANCE = 0.3  # |log size ratio| below this in a camera makes its blob clean enough to refine with
+TRACK_BONUS = 3.0  # rank multiplier for objects a confirmed track predicts
+CENTROID_SIGMA_PX = 0.5  # blob centroid noise of a shaded, sensor-noisy ball, pixels (sets refined objects' covariance)
+ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean
+DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
+DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
 
 
 _NO_LABELS, _NO_LABEL_BLOB = np.zeros((1, 1), np.int32), np.full(1, -1)
@@ -97,32 +106,32 @@ def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarr
 
 def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainSettings, predicted: np.ndarray | None) -> np.ndarray:
     """mass x size consistency, with a bonus where a confirmed track predicts a ball."""
-    consistency = np.exp(-0.5 * np.nansum((log_ratio / settings.size_tolerance) ** 2, axis=1))
+    consistency = np.exp(-0.5 * np.nansum((log_ratio / SIZE_TOLERANCE) ** 2, axis=1))
     score = np.array([o.mass for o in objects]) * np.maximum(consistency, 1e-3)
     if predicted is not None and len(predicted):
         pos = np.array([o.position for o in objects])
         near = (np.linalg.norm(pos[:, None] - predicted[None], axis=2) < 2 * settings.radius).any(axis=1)
-        score = np.where(near, score * settings.track_bonus, score)
+        score = np.where(near, score * TRACK_BONUS, score)
     return score
 
 
 def explain(
     objects: Sequence[Object3D],
-    cameras: Sequence[Camera],
-    blobs: Sequence[Blobs],
+    views: Sequence[CameraEvidence],
     settings: ExplainSettings,
-    predicted: np.ndarray | None = None,
-    rays: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
-    occluders: tuple[np.ndarray, np.ndarray] | None = None,
+    predicted: TrackedBalls | None = None,
+    occluders: TrackedBalls | None = None,
 ) -> tuple[list[Object3D], np.ndarray]:
-    """Keep the objects that explain blobs.
+    """Keep the objects that explain blobs of this target's evidence (``views``, one per camera).
 
-    ``predicted``: where tracks of this colour expect balls; ``rays``: the
-    blobs' viewing rays per camera (origins, directions), if already known;
-    ``occluders``: tracked balls of other colours (centres B x 3, radii B),
-    whose discs hide part of a ball behind them. Returns (kept objects, index
-    of the kept object each input object went into, or -1 if it was dropped).
+    ``predicted``: the tracked balls of this colour (where tracks expect
+    balls); ``occluders``: tracked balls of other colours, whose discs hide
+    part of a ball behind them. Returns (kept objects, index of the kept
+    object each input object went into, or -1 if it was dropped).
     """
+    cameras, blobs, rays = [v.camera for v in views], [v.blobs for v in views], [v.rays for v in views]
+    predicted = predicted.centres if predicted is not None else None
+    occluders = (occluders.centres, occluders.radii) if occluders is not None else None
     into = np.full(len(objects), -1)
     if not objects:
         return [], into
@@ -160,8 +169,6 @@ def explain(
         into[members[i]] = n
     out = [merged[i] for i in kept]
     if settings.refine:
-        if rays is None:
-            rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
         out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted)
     return out, into
@@ -210,8 +217,8 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
     for j, cam in enumerate(cameras):
         uv, front, z = cam.view(positions)
         ouv, ofront, oz = cam.view(centres)
-        r = cam.focal_px * radius / np.maximum(z, 1e-6)
-        orad = cam.focal_px * radii / np.maximum(oz, 1e-6)
+        r = cam.apparent_radius(radius, z)
+        orad = cam.apparent_radius(radii, oz)
         apart = np.linalg.norm(uv[:, None] - ouv[None], axis=2)
         out[:, j] = (front[:, None] & ofront[None] & (oz[None] < z[:, None]) & (apart < r[:, None] + orad[None])).any(axis=1)
     return out
@@ -228,7 +235,7 @@ def _clean_views(
         j
         for j in range(blob_ids.shape[1])
         # unseen, clipped or occluded in a camera: not clean there
-        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < settings.refine_tolerance and not hidden[n, j]
+        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < REFINE_TOLERANCE and not hidden[n, j]
     ]
     return good, shared
 
@@ -250,7 +257,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
     for good, idx in by_cameras.items():
         px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
-        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, settings.centroid_sigma_px)
+        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, CENTROID_SIGMA_PX)
         for i, point, cov in zip(idx, points, covs):
             if np.linalg.norm(point - merged[i].position) <= 3 * settings.radius:  # else the blobs disagree with the particles
                 out[i] = replace(merged[i], position=point, covariance=cov)
@@ -277,22 +284,22 @@ def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, pr
     j = good[0]
     o, d = rays[j][0][blob_ids[i, j]], rays[j][1][blob_ids[i, j]]
     spread = float(d @ obj.covariance @ d)
-    along = max(spread, settings.one_view_depth_sigma**2)
+    along = max(spread, ONE_VIEW_DEPTH_SIGMA**2)
     own = float((obj.position - o) @ d)
     if np.linalg.norm(obj.position - (o + d * own)) > 3 * settings.radius:
         return obj  # the blob and the particles disagree: trust the particles
     # Only a blob shared with another ball, with the particles spread wide along the ray, makes
     # their depth ambiguous; otherwise the track's prediction would feed its velocity back into itself.
-    ambiguous = bool(shared) and spread > settings.one_view_depth_sigma**2
+    ambiguous = bool(shared) and spread > ONE_VIEW_DEPTH_SIGMA**2
     depth = _depth_along_ray(o, d, own, along, predicted, settings.radius) if ambiguous else own
     # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
     # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
     fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
     if fit is not None:
-        depth, along = fit.depth, max(fit.sigma, settings.disc_fit_sigma) ** 2
+        depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
     z = float(cameras[j].depth(point[None])[0])
-    across = (settings.centroid_sigma_px * z / cameras[j].K[0, 0]) ** 2
+    across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
     cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     return replace(obj, position=point, covariance=cov)
 
@@ -312,5 +319,5 @@ def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, s
         others = np.array([positions[k] for k in mates])
         mismatch += union_mismatch(cameras[j], blobs[j], int(blob_ids[i, j]), candidates, others, settings.radius)
         z = float(cameras[j].depth((o + depth * d)[None])[0])
-        area += np.pi * (cameras[j].K[0, 0] * settings.radius / max(z, 0.05)) ** 2
-    return depth_on_ray(mismatch, depths, depth, np.sqrt(along), settings.disc_fit_tolerance * area)
+        area += np.pi * cameras[j].apparent_radius(settings.radius, max(z, 0.05)) ** 2
+    return depth_on_ray(mismatch, depths, depth, np.sqrt(along), DISC_FIT_TOLERANCE * area)

@@ -7,10 +7,15 @@ cameras cross (the blobs come from ``evidence/blobs.py``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..camera import Camera
-from ..kernels import crossing_points
+from ..config import TrackerSettings
+from ..evidence.gather import CameraEvidence
+from ..results import TrackedBalls
+from .kernels import crossing_points
 
 
 def depth_range_from_size(
@@ -55,7 +60,7 @@ def particles_on_rays(
     return origins[ray] + dist[:, None] * directions[ray], ray
 
 
-def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6, rays=None) -> np.ndarray:
+def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6) -> np.ndarray:
     """Where blob rays of two cameras (nearly) meet: K x 3 midpoints of their closest approach.
 
     A ball seen in two views sits where its two rays cross; so does a stereo
@@ -64,34 +69,93 @@ def ray_crossings(cameras, blobs, radius: float, d_min: float, d_max: float, ski
     one ball radius, meet outside [d_min, d_max], or whose blobs are more than
     ``slack`` times larger or smaller than a ball there would look (a
     same-coloured poster on the wall, most ghosts) are not crossings, nor
-    are blobs marked in ``skip`` (per camera, a bool per blob). ``rays``: the
-    blobs' viewing rays per camera, (origins, directions), if already known.
+    are blobs marked in ``skip`` (per camera, a bool per blob).
     """
-    if rays is None:
-        rays = [cam.rays(b.centres) for cam, b in zip(cameras, blobs)]
-    rays = [r if len(b) else None for r, b in zip(rays, blobs)]
-    use = [np.ones(len(b), bool) if skip is None else ~np.asarray(skip[j], bool) for j, b in enumerate(blobs)]
+    use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
     out = [
         crossing_points(
-            *rays[j],
-            blobs[j].radii,
+            *a.rays,
+            a.blobs.radii,
             use[j],
-            *rays[k],
-            blobs[k].radii,
+            *b.rays,
+            b.blobs.radii,
             use[k],
-            cameras[j].R,
-            cameras[j].t,
-            cameras[j].focal_px,
-            cameras[k].R,
-            cameras[k].t,
-            cameras[k].focal_px,
+            a.camera.R,
+            a.camera.t,
+            a.camera.focal_px,
+            b.camera.R,
+            b.camera.t,
+            b.camera.focal_px,
             radius,
             d_min,
             d_max,
             slack,
-        )
-        for j in range(len(rays))
-        for k in range(j + 1, len(rays))
-        if rays[j] is not None and rays[k] is not None
+        )  # fmt: skip
+        for j, a in enumerate(views)
+        for k, b in enumerate(views)
+        if j < k and len(a.blobs) and len(b.blobs)
     ]
     return np.vstack(out) if out else np.zeros((0, 3))
+
+
+def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: np.random.Generator) -> np.ndarray:
+    """Particles spread over the camera's field of view between d_min and d_max (no information)."""
+    uv = rng.random((n, 2)) * np.array([camera.width, camera.height])
+    o, d = camera.rays(uv)
+    dist = d_min + rng.random(n) * (d_max - d_min)
+    return o + dist[:, None] * d
+
+
+HELD_MIN_PX = 3.0  # a tracked ball holds a blob when it projects within the blob's radius, or this many pixels of its centre
+
+
+class RayProposal:
+    """The abductive proposal (the birth sampler): ``n`` particles from this frame's evidence alone.
+
+    Along every blob's viewing ray, between the depths its size allows, and a
+    share (``crossing_share``) around the points where two cameras' rays
+    cross; with no blob anywhere, spread blindly over the first camera's view.
+    """
+
+    def __init__(self, settings: TrackerSettings, radius: float):
+        self.settings = settings
+        self.radius = radius
+
+    def __call__(self, views: Sequence[CameraEvidence], n: int, mine: TrackedBalls | None, rng: np.random.Generator) -> np.ndarray:
+        """``mine``: this target's tracked balls (their blobs make no crossings: their balls have particles)."""
+        s = self.settings
+        origins, dirs, near, far = [], [], [], []
+        for v in views:
+            b = v.blobs
+            if len(b) == 0:
+                continue
+            if s.depth_from_size:
+                lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
+            else:
+                lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
+            origins.append(v.origins)
+            dirs.append(v.directions)
+            near.append(lo)
+            far.append(hi)
+        if not origins:  # nothing of this colour in any image: search blindly
+            return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
+        crossings = np.zeros((0, 3))
+        if s.crossing_share > 0:
+            # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
+            # into are left out (their ball has its particles; a partly hidden one's shifted centroid
+            # would cross at the wrong depth).
+            held = None
+            if mine is not None and len(mine):
+                held = []
+                for v in views:
+                    uv, ok = v.camera.project(mine.centres)
+                    d = np.linalg.norm(uv[:, None] - v.blobs.centres[None], axis=2)
+                    held.append((ok[:, None] & (d < np.maximum(v.blobs.radii[None], HELD_MIN_PX))).any(axis=0))
+            crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
+        n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
+        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)
+        if n_cross:
+            at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
+            at = np.r_[at, rng.permutation(len(crossings))[: n_cross - len(at)]]
+            pts = np.vstack([pts, crossings[at] + rng.normal(0.0, 0.5 * self.radius, (n_cross, 3))])
+        return pts

@@ -12,7 +12,7 @@ from .render import SceneRenderer
 from .spec import WORLD_UP, SceneSpec
 
 
-def render_scene(spec: SceneSpec, out_folder: str | Path, progress: bool = True, codec: str = "ffv1", overwrite: bool = False) -> Path:
+def render_scene(spec: SceneSpec, out_folder: str | Path, progress: bool = True, codec: str = "mjpg", overwrite: bool = False) -> Path:
     """Render a scene into a recording folder (videos, frames.csv, calib.yaml, truth.csv, config.yaml)."""
     from ..console import Progress
     from ..recording import RecordingWriter

@@ -33,8 +33,8 @@ from scipy.optimize import linear_sum_assignment
 
 from ..camera import Rig
 from ..config import TrackSettings
-from ..kernels import association_costs, kalman_correct, kalman_predict
 from ..results import Object3D, TrackEstimate
+from .kernels import association_costs, kalman_correct, kalman_predict
 
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit

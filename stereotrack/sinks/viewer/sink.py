@@ -46,24 +46,18 @@ from typing import Any
 import numpy as np
 
 from ...camera import Rig
-from ...config import Config, Target
+from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
-from .columns import Pending, SeriesBuffer, Trail
+from .columns import ColumnWriter, Pending, SeriesBuffer, Trail
 from .process import open_outputs
 from .style import (
     ABDUCTIVE,
     APPLICATION_ID,
-    PALETTE,
-    PALETTE_RGBA,
-    PARTICLE_RGBA,
     SEQUENTIAL,
-    UNCLUSTERED,
+    TargetStyle,
     default_blueprint,
-    packed_rgba,
-    quaternions_xyzw,
-    target_colour,
     with_alpha,
 )
 
@@ -138,8 +132,7 @@ class RerunSink:
         self.settings = settings
         self.outputs = outputs
         self._rng = np.random.default_rng(settings.seed)
-        self._targets = {t.name: t for t in config.targets}
-        self._colours = {t.name: target_colour(t) for t in config.targets}
+        self.style = TargetStyle(config.targets)
         self._truth = self._index_truth(truth)
         self._truth_labels = [f"truth {int(o)}" for o in self._truth[0][:, 1]] if self._truth is not None else []
         import cv2
@@ -174,10 +167,11 @@ class RerunSink:
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
         self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
         self._log_static()
-        self._components: dict[tuple[type, str], tuple[Any, Any]] = {}  # (archetype, field) -> descriptor, batch class
-        self._packed_colours: dict[str, int] = {}
+        self.columns = ColumnWriter(
+            rr, self.rec, rig, config.tracker.window, self.style, settings.trail_seconds, self._truth, self._truth_labels
+        )
         self._subsets: dict[int, np.ndarray] = {}  # population size -> the particles logged
-        self._series = SeriesBuffer(rr, self._rows)
+        self._series = SeriesBuffer(rr, self.columns.rows)
         self._batch: list[Pending] = []  # logged frames not sent yet (the logging thread's own)
         self._batch_started = 0.0  # time.monotonic() when the first of them arrived
         watched = outputs.spawn or outputs.connect or outputs.serve
@@ -213,7 +207,8 @@ class RerunSink:
             )
             masks = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0, 0))]
             masks += [
-                rr.AnnotationInfo(id=i + 1, label=t.name, color=(*self._colours[t.name], 140)) for i, t in enumerate(self.config.targets)
+                rr.AnnotationInfo(id=i + 1, label=t.name, color=(*self.style.colours[t.name], 140))
+                for i, t in enumerate(self.config.targets)
             ]
             rec.log(f"{path}/mask", rr.AnnotationContext(masks), static=True)
         rec.log(
@@ -383,196 +378,8 @@ class RerunSink:
     def _flush(self) -> None:
         batch, self._batch = self._batch, []
         if batch:
-            self._send(batch)
+            self.columns.send(batch)
         self._series.flush()
-
-    def _send(self, batch: list[Pending]) -> None:
-        """Send a batch of logged frames: one send_columns per entity, every array built once for the batch."""
-        rr = self.rr
-        n = len(batch)
-        frames = np.array([b.index for b in batch], dtype=np.int64)
-        times = np.array([b.time for b in batch], dtype=float)
-        index = [rr.TimeColumn("frame", sequence=frames), rr.TimeColumn("capture_time", duration=times)]
-
-        # Objects: cluster means, coloured by their index in their frame (as their particles).
-        objects = [o for b in batch for o in b.objects]
-        n_obj = np.array([len(b.objects) for b in batch], dtype=np.int64)
-        obj_pos = np.array([o.position for o in objects], dtype=float).reshape(-1, 3)
-        obj_rank = np.arange(len(objects)) - np.repeat(np.cumsum(n_obj) - n_obj, n_obj)
-        obj_colours = PALETTE_RGBA[obj_rank % len(PALETTE)]
-        obj_radii = np.array([self._radius(o.target) for o in objects], dtype=float)
-        labels = [f"{o.target} {o.n_particles}p" for o in objects]
-        self._rows("world/objects", index, n_obj, rr.Points3D, positions=obj_pos, colors=obj_colours, labels=labels)
-
-        # Tracks: spheres of the ball's radius, 2-sigma covariance ellipsoids (one batched eigen-decomposition).
-        tracks = [t for b in batch for t in b.tracks]
-        n_trk = np.array([len(b.tracks) for b in batch], dtype=np.int64)
-        centres = np.array([t.position for t in tracks], dtype=float).reshape(-1, 3)
-        radii = np.array([self._radius(t.target) for t in tracks], dtype=float)
-        colours = np.array([self._packed(t.target) for t in tracks], dtype=np.uint32)
-        labels = [f"#{t.track_id} {t.target}" for t in tracks]
-        self._rows(
-            "world/tracks",
-            index,
-            n_trk,
-            rr.Ellipsoids3D,
-            centers=centres,
-            half_sizes=np.repeat(radii[:, None], 3, axis=1),
-            colors=colours,
-            labels=labels,
-        )
-        cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
-        evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
-        evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
-        halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
-        self._rows(
-            "world/tracks/covariance",
-            index,
-            n_trk,
-            rr.Ellipsoids3D,
-            centers=centres,
-            half_sizes=halves,
-            quaternions=quaternions_xyzw(evecs),
-            colors=colours,
-        )
-
-        # Fading trails: one two-point strip per step, alpha falling with age.
-        first_trk = np.cumsum(n_trk) - n_trk
-        pieces = [(b.time, first_trk[i] + k, ts, pts) for i, b in enumerate(batch) for k, ts, pts in b.trails]
-        if pieces:
-            steps = np.array([len(p[2]) - 1 for p in pieces])
-            ts = np.concatenate([p[2] for p in pieces])
-            pts = np.concatenate([p[3] for p in pieces])
-            within = np.ones(len(ts) - 1, dtype=bool)
-            within[np.cumsum(steps + 1)[:-1] - 1] = False  # no step from one trail's end to the next one's start
-            ends = np.stack([pts[:-1][within], pts[1:][within]], axis=1)
-            age = np.repeat([p[0] for p in pieces], steps) - ts[1:][within]
-            alpha = np.clip(255.0 * (1.0 - age / max(self.settings.trail_seconds, 1e-9)), 0, 255).astype(np.uint32)
-            seg_colours = (np.repeat(colours[[p[1] for p in pieces]], steps) & np.uint32(0xFFFFFF00)) | alpha
-            n_seg = np.bincount([i for i, b in enumerate(batch) for _ in b.trails], weights=steps, minlength=n).astype(np.int64)
-        else:
-            ends, seg_colours, n_seg = np.zeros((0, 2, 3)), np.zeros(0, np.uint32), np.zeros(n, dtype=np.int64)
-        self._rows("world/tracks/trails", index, n_seg, rr.LineStrips3D, strips=self._segments(ends), colors=seg_colours)
-
-        # Particles, per target: coloured by cluster; abductive ones lighter and smaller, class 1.
-        for target in dict.fromkeys(p[0] for b in batch for p in b.particles):
-            mine = [next((p for p in b.particles if p[0] == target), None) for b in batch]
-            lengths = np.array([0 if p is None else len(p[1]) for p in mine], dtype=np.int64)
-            mine = [p for p in mine if p is not None]
-            pos = np.concatenate([p[1] for p in mine])
-            labels = np.concatenate([p[2] for p in mine])
-            abductive = np.concatenate([p[3] for p in mine]).astype(bool)
-            glob = labels + np.repeat([p[4] for p in mine], [len(p[1]) for p in mine])
-            shade = np.where(labels >= 0, glob % len(PALETTE), len(PALETTE)) + abductive * (len(PALETTE) + 1)
-            self._rows(
-                f"world/particles/{target}",
-                index,
-                lengths,
-                rr.Points3D,
-                positions=pos,
-                colors=PARTICLE_RGBA[shade],
-                radii=np.where(abductive, 0.003, 0.005),
-                class_ids=np.where(abductive, ABDUCTIVE, SEQUENTIAL).astype(np.uint16),
-            )
-
-        if self._truth is not None:
-            truth, truth_frames = self._truth
-            lo, hi = np.searchsorted(truth_frames, frames), np.searchsorted(truth_frames, frames + 1)
-            rows = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]).astype(np.int64)
-            self._rows("world/truth", index, hi - lo, rr.Points3D, positions=truth[rows, 2:5], labels=[self._truth_labels[i] for i in rows])
-
-        # Each camera: its image, the objects' windows and the tracks' marks, projected for the whole batch at once.
-        both, n_objs = np.vstack([obj_pos, centres]), len(objects)
-        obj_frame, trk_frame = np.repeat(np.arange(n), n_obj), np.repeat(np.arange(n), n_trk)
-        trk_labels = [f"#{t.track_id}" for t in tracks]
-        half_window = self.config.tracker.window / 2
-        for ci, cam in enumerate(self.rig.cameras):
-            path = f"world/cameras/{cam.name}"
-            have = [i for i, b in enumerate(batch) if ci < len(b.jpegs)]
-            if have:
-                idx = (
-                    index
-                    if len(have) == n
-                    else [rr.TimeColumn("frame", sequence=frames[have]), rr.TimeColumn("capture_time", duration=times[have])]
-                )
-                self._rows(
-                    f"{path}/image", idx, np.ones(len(have), dtype=np.int64), rr.EncodedImage, blob=[batch[i].jpegs[ci] for i in have]
-                )
-            uv, depth, vis = self._visible(cam, both)
-            o_vis = vis[:n_objs]
-            half = np.maximum(cam.K[0, 0] * obj_radii[o_vis] / depth[:n_objs][o_vis], half_window)
-            self._rows(
-                f"{path}/objects",
-                index,
-                np.bincount(obj_frame[o_vis], minlength=n),
-                rr.Boxes2D,
-                centers=uv[:n_objs][o_vis],
-                half_sizes=np.repeat(half[:, None], 2, axis=1),
-                colors=obj_colours[o_vis],
-            )
-            t_vis = vis[n_objs:]
-            self._rows(
-                f"{path}/tracks",
-                index,
-                np.bincount(trk_frame[t_vis], minlength=n),
-                rr.Points2D,
-                positions=uv[n_objs:][t_vis],
-                colors=colours[t_vis],
-                labels=[lb for lb, v in zip(trk_labels, t_vis) if v],
-            )
-
-    def _rows(self, path: str, index: list[Any], lengths: np.ndarray, archetype: type, **fields: Any) -> None:
-        """One send_columns: each field's instances (all frames of the batch, concatenated) split into rows of these lengths.
-
-        The component batches are built straight from the arrays (rerun's
-        ``Archetype.columns`` would convert and partition each twice).
-        """
-        offsets = np.zeros(len(lengths) + 1, dtype=np.int32)
-        np.cumsum(lengths, out=offsets[1:])
-        columns = []
-        for name, data in fields.items():
-            key = (archetype, name)
-            if key not in self._components:
-                descriptor = getattr(archetype, f"descriptor_{name}")()
-                self._components[key] = (descriptor, getattr(self.rr.components, descriptor.component_type.rsplit(".", 1)[-1] + "Batch"))
-            descriptor, batch = self._components[key]
-            columns.append(self.rr.ComponentColumn(descriptor, batch(data), offsets=offsets))
-        self.rec.send_columns(path, index, columns)
-
-    def _segments(self, ends: np.ndarray) -> Any:
-        """S x 2 x 3 segment end points -> rerun's LineStrip3D arrow array in one go (its converter loops per strip)."""
-        import pyarrow as pa
-
-        strip_type = self.rr.components.LineStrip3DBatch._ARROW_DATATYPE
-        points = pa.FixedSizeListArray.from_arrays(
-            pa.array(np.ascontiguousarray(ends, dtype=np.float32).reshape(-1)), type=strip_type.value_type
-        )
-        return pa.ListArray.from_arrays(pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)), points, type=strip_type)
-
-    def _packed(self, name: str) -> int:
-        """A target's display colour as rerun's packed 0xRRGGBBAA."""
-        if name not in self._packed_colours:
-            self._packed_colours[name] = int(packed_rgba(self._colour(name))[0])
-        return self._packed_colours[name]
-
-    def _target(self, name: str) -> Target:
-        return self._targets.get(name) or Target(name, (0, 0, 0), (179, 255, 255))
-
-    def _radius(self, name: str) -> float:
-        return self._target(name).radius
-
-    def _colour(self, name: str) -> np.ndarray:
-        return self._colours.get(name, UNCLUSTERED)
-
-    @staticmethod
-    def _visible(cam, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Pixels, depths, and whether each point is in front of the camera and inside its image."""
-        pc = cam.to_camera(points)
-        depth = pc[:, 2]
-        front = depth > 1e-9
-        uv = cam.distort_normalised(pc[:, :2] / np.where(front, depth, 1.0)[:, None])
-        inside = front & cam.in_image(uv)
-        return uv, depth, inside
 
     def _log_extras(self, result: FrameResult) -> None:
         """Raw images, colour masks and viewing rays: off by default, logged per frame."""
@@ -611,7 +418,7 @@ class RerunSink:
             strips = np.stack([rays.origins + d_min * rays.directions, rays.origins + d_max * rays.directions], axis=1)
             self.rec.log(
                 f"world/rays/{rays.target}/{rays.camera}",
-                self.rr.LineStrips3D(strips, colors=with_alpha(self._colour(rays.target), np.full(len(strips), 0.6)), radii=0.002),
+                self.rr.LineStrips3D(strips, colors=with_alpha(self.style.colour(rays.target), np.full(len(strips), 0.6)), radii=0.002),
             )
 
     def _log_stats(self, result: FrameResult, now: float, fps: float | None) -> None:
@@ -623,7 +430,7 @@ class RerunSink:
         confirmed = result.confirmed
         for t in confirmed:
             add(f"stats/counts/particles/track_{t.track_id}", t.n_particles)
-        for name in self._targets:
+        for name in self.style.targets:
             add(f"stats/counts/objects/{name}", sum(o.target == name for o in result.objects))
         add("stats/counts/confirmed_tracks", len(confirmed))
         for stage, ms in result.timings_ms.items():

@@ -130,3 +130,27 @@ def quaternions_xyzw(R: np.ndarray) -> np.ndarray:
     q = candidates[np.arange(len(R)), case] / s[:, None]
     q *= np.where(q[:, 3:4] < 0, -1.0, 1.0)  # w >= 0, one of the two equal quaternions
     return q
+
+
+class TargetStyle:
+    """Each target's display colour and ball radius, looked up by target name (unknown names: grey, a default radius)."""
+
+    def __init__(self, targets) -> None:
+        self.targets = {t.name: t for t in targets}
+        self.colours = {t.name: target_colour(t) for t in targets}
+        self._packed_colours: dict[str, int] = {}
+
+    def packed(self, name: str) -> int:
+        """A target's display colour as rerun's packed 0xRRGGBBAA."""
+        if name not in self._packed_colours:
+            self._packed_colours[name] = int(packed_rgba(self.colour(name))[0])
+        return self._packed_colours[name]
+
+    def target(self, name: str) -> Target:
+        return self.targets.get(name) or Target(name, (0, 0, 0), (179, 255, 255))
+
+    def radius(self, name: str) -> float:
+        return self.target(name).radius
+
+    def colour(self, name: str) -> np.ndarray:
+        return self.colours.get(name, UNCLUSTERED)

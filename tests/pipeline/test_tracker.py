@@ -10,9 +10,10 @@ import pytest
 from stereotrack.config import config_from_dict, config_to_dict
 from stereotrack.errors import StereotrackError
 from stereotrack.evaluate import evaluate
-from stereotrack.pipeline import Tracker
-from stereotrack.recording import FramePair
-from stereotrack.synth import SceneRenderer, make_preset
+from stereotrack.frames import FramePair
+from stereotrack.pipeline.tracker import Tracker
+from stereotrack.simulation.presets import make_preset
+from stereotrack.simulation.render import SceneRenderer
 
 
 def run_scene(name, n_frames, tracker_overrides=None, **overrides):
@@ -135,8 +136,8 @@ def test_wrong_image_size_is_a_clear_error():
 def _crossing_two_colours(occlusion: bool):
     from dataclasses import replace
 
-    from stereotrack.synth import BallSpec, RigSpec, SceneSpec
-    from stereotrack.trajectories import Line
+    from stereotrack.simulation.spec import BallSpec, RigSpec, SceneSpec
+    from stereotrack.simulation.trajectories import Line
 
     near = Line((-0.3, 1.2, 0.0), (0.3, 1.2, 0.0), period=4.0)
     far = Line((0.3, 1.8, 0.02), (-0.3, 1.8, 0.02), period=4.0)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from stereotrack.errors import StereotrackError
-from stereotrack.mocap import JUGGLING_5, find_real_data, link_balls, link_points, load_juggling, read_qualisys_tsv
+from stereotrack.simulation.mocap import JUGGLING_5, find_real_data, link_balls, link_points, load_juggling, read_qualisys_tsv
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +70,7 @@ def test_not_a_capture_is_a_clear_error(tmp_path):
 
 
 def test_single_ball_capture():
-    from stereotrack.mocap import THROWS_6
+    from stereotrack.simulation.mocap import THROWS_6
 
     throws = link_balls(read_qualisys_tsv(find_real_data(THROWS_6)), n_balls=1)
     assert throws.n_balls == 1 and 0.5 < throws.present.mean() < 0.8

@@ -1,10 +1,11 @@
+import dataclasses
+
 import numpy as np
 import pytest
-from scene_helpers import RADIUS, default_rig, disc_masks
+from scene_helpers import RADIUS, TARGET, balls_at, default_rig, disc_masks, evidence
 
-from stereotrack.abduction import find_blobs
 from stereotrack.config import TrackerSettings
-from stereotrack.population import Population, split_counts
+from stereotrack.particles.population import Population, split_counts
 
 BALLS = np.array([[-0.2, 1.3, 0.0], [0.25, 1.9, 0.1]])
 
@@ -17,10 +18,10 @@ def share_near(state, ball, radius=2 * RADIUS):
 def run_population(alpha, frames=40, seed=0, particles=1000):
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)
-    blobs = [find_blobs(m) for m in masks]
-    pop = Population(rig.cameras, TrackerSettings(particles=particles, alpha=alpha), RADIUS, np.random.default_rng(seed))
+    views = evidence(rig, masks)
+    pop = Population(rig.cameras, TrackerSettings(particles=particles, alpha=alpha), TARGET, np.random.default_rng(seed))
     for _ in range(frames):
-        state = pop.step(integrals, blobs, dt=1 / 30)
+        state = pop.step(views, dt=1 / 30)
     return state
 
 
@@ -57,10 +58,10 @@ def test_alpha_positive_keeps_particles_on_both_balls(alpha):
 def test_alpha_one_puts_every_particle_on_a_blob_ray():
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)
-    blobs = [find_blobs(m) for m in masks]
+    views = evidence(rig, masks)
     for share in (0.0, 0.25):  # the paper's proposal (rays only), then ours (a share at ray crossings)
-        pop = Population(rig.cameras, TrackerSettings(particles=500, alpha=1.0, crossing_share=share), RADIUS, np.random.default_rng(0))
-        state = pop.step(integrals, blobs, dt=1 / 30)
+        pop = Population(rig.cameras, TrackerSettings(particles=500, alpha=1.0, crossing_share=share), TARGET, np.random.default_rng(0))
+        state = pop.step(views, dt=1 / 30)
         assert state.abductive.all() and state.weights.sum() == pytest.approx(1.0)
         # Every particle projects onto a ball's disc in the camera whose ray placed it, or sits
         # around a crossing of two rays (here: a ball).
@@ -80,26 +81,24 @@ def test_crossing_particles_find_a_new_ball_in_its_first_frame():
     its two rays it gets a share of them all (a juggled ball coming out of the hand)."""
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)
-    blobs = [find_blobs(m) for m in masks]
+    views = evidence(rig, masks)
     weight = {}
     for share in (0.0, 0.25):
-        pop = Population(rig.cameras, TrackerSettings(alpha=0.2, crossing_share=share), RADIUS, np.random.default_rng(0))
-        state = pop.step(integrals, blobs, dt=1 / 30)
+        pop = Population(rig.cameras, TrackerSettings(alpha=0.2, crossing_share=share), TARGET, np.random.default_rng(0))
+        state = pop.step(views, dt=1 / 30)
         weight[share] = min(share_near(state, b, RADIUS)[0] for b in BALLS)
     assert weight[0.25] > 3 * weight[0.0]
     assert weight[0.25] > 0.02  # above the clusters' minimum mass (0.01): an object this very frame
 
 
 def test_exclusion_kills_particles_of_one_track_inside_another_ball():
-    from stereotrack.population import TrackedBalls
-
     rig = default_rig()
     masks, integrals = disc_masks(rig, BALLS)
-    blobs = [find_blobs(m) for m in masks]
-    pop = Population(rig.cameras, TrackerSettings(particles=1000, alpha=0.0, motion_sigma=0.0), RADIUS, np.random.default_rng(0))
-    pop.step(integrals, blobs, dt=1 / 30)
+    views = evidence(rig, masks)
+    pop = Population(rig.cameras, TrackerSettings(particles=1000, alpha=0.0, motion_sigma=0.0), TARGET, np.random.default_rng(0))
+    pop.step(views, dt=1 / 30)
     # Pretend every particle follows track 1 while track 2's ball sits on ball 0.
-    pop.follow_tracks(np.zeros((1000, 3)), np.full(1000, 1))
+    pop.state = dataclasses.replace(pop.state, owners=np.full(1000, 1))
     pop.state = type(pop.state)(
         np.repeat(BALLS[:1], 1000, axis=0),
         pop.state.velocities,
@@ -108,11 +107,11 @@ def test_exclusion_kills_particles_of_one_track_inside_another_ball():
         pop.state.abductive,
         pop.state.owners,
     )
-    balls = TrackedBalls(BALLS[:1], np.array([RADIUS]), np.array([2]), np.array([False]))
-    state = pop.step(integrals, blobs, dt=1 / 30, balls=balls)
+    balls = balls_at(BALLS[:1], first_id=2)
+    state = pop.step(views, dt=1 / 30, balls=balls)
     assert state.weights.sum() == pytest.approx(1.0)
     assert np.allclose(state.weights, 1e-3)  # every particle was an intruder: all zero, renormalised to uniform
     # With the ball being their own track, nothing happens to them.
-    pop.follow_tracks(np.zeros((1000, 3)), np.full(1000, 2))
-    state = pop.step(integrals, blobs, dt=1 / 30, balls=balls)
+    pop.state = dataclasses.replace(pop.state, owners=np.full(1000, 2))
+    state = pop.step(views, dt=1 / 30, balls=balls)
     assert state.likelihoods.min() > 0.5

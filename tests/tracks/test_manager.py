@@ -8,7 +8,7 @@ import pytest
 from stereotrack.config import TrackSettings, config_from_dict
 from stereotrack.errors import StereotrackError
 from stereotrack.results import Object3D
-from stereotrack.tracks import TrackManager, motion_model
+from stereotrack.tracks.manager import TrackManager, motion_model
 
 SIGMA = 0.005  # measurement noise of the synthetic objects, metres
 

@@ -1,7 +1,8 @@
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
-from stereotrack.clustering import ClusterSettings, cluster_particles, systematic_indices
+from stereotrack.objects.clustering import ClusterSettings, cluster_particles
+from stereotrack.particles.resampling import systematic_indices
 
 
 def ball_cloud(rng, centre, n, rig):
@@ -55,7 +56,7 @@ def test_systematic_resampling_is_proportional():
 
 
 def test_compiled_log_gauss_matches_the_textbook_formula():
-    from stereotrack.kernels import log_gauss
+    from stereotrack.objects.kernels import log_gauss
 
     rng = np.random.default_rng(3)
     X = rng.normal([0.1, 1.5, -0.2], 0.2, (300, 3))

@@ -1,8 +1,8 @@
 import numpy as np
 from scene_helpers import RADIUS, default_rig, disc_masks
 
-from stereotrack.abduction import find_blobs
-from stereotrack.discs import depth_on_ray, union_mismatch
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.objects.discs import depth_on_ray, union_mismatch
 
 
 def scene(lateral: float):

@@ -5,10 +5,20 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.boards import Board, BoardDetector, board_from_dict, diagnose, flipped, load_board, png_dpi, printable, write_png_with_dpi
-from stereotrack.boardsynth import random_board_poses, render_board
+from stereotrack.calibration.boards import (
+    Board,
+    BoardDetector,
+    board_from_dict,
+    diagnose,
+    flipped,
+    load_board,
+    png_dpi,
+    printable,
+    write_png_with_dpi,
+)
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at
 from stereotrack.errors import StereotrackError
+from stereotrack.simulation.boards import random_board_poses, render_board
 
 CHESS = Board("chessboard", (9, 7), 0.03)
 CHARUCO = Board("charuco", (7, 5), 0.04, 0.03, "DICT_5X5_100")
@@ -146,7 +156,7 @@ def test_detected_corners_match_rendered_truth(rendered, kind):
 
 def test_flipped_twice_is_identity():
     rng = np.random.default_rng(0)
-    from stereotrack.boards import Detection
+    from stereotrack.calibration.boards import Detection
 
     d = Detection(np.arange(CHESS.n_corners), rng.normal(size=(CHESS.n_corners, 2)))
     f = flipped(CHESS, d)

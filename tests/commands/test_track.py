@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 import yaml
 
-from stereotrack.synth import make_preset, render_scene
-from stereotrack.trackfile import read_tracks
+from stereotrack.simulation.presets import make_preset
+from stereotrack.simulation.write import render_scene
+from stereotrack.sinks.tracks_csv import read_tracks
 
 
 def cli(*args, cwd=None):

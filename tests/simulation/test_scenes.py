@@ -7,9 +7,11 @@ import pytest
 from stereotrack.cli import main
 from stereotrack.errors import StereotrackError
 from stereotrack.recording import open_recording, read_truth
-from stereotrack.scenes import PRESETS, load_scene_yaml, make_preset
-from stereotrack.synth import BallSpec, Occluder, RigSpec, SceneRenderer, SceneSpec, ensure_demo_recording
-from stereotrack.trajectories import Static
+from stereotrack.simulation.presets import PRESETS, load_scene_yaml, make_preset
+from stereotrack.simulation.render import SceneRenderer
+from stereotrack.simulation.spec import BallSpec, Occluder, RigSpec, SceneSpec
+from stereotrack.simulation.trajectories import Static
+from stereotrack.simulation.write import ensure_demo_recording
 
 
 def hsv_mask(image: np.ndarray, target) -> np.ndarray:
@@ -207,7 +209,26 @@ balls:
 
 def test_synth_command_writes_a_readable_recording(tmp_path, capsys):
     out = tmp_path / "rec"
-    assert main(["synth", "pendulum4", "--out", str(out), "--frames", "3", "--width", "320", "--height", "240", "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "pendulum4",
+                "--out",
+                str(out),
+                "--frames",
+                "3",
+                "--width",
+                "320",
+                "--height",
+                "240",
+                "--no-progress",
+                "--codec",
+                "ffv1",
+            ]
+        )
+        == 0
+    )
     rec = open_recording(out)
     assert rec.n_frames == 3 and rec.rig is not None and rec.rig.world == "custom"
     assert rec.meta["up"] == [0.0, 0.0, 1.0] and rec.targets_path.is_file()
@@ -227,7 +248,7 @@ def test_synth_command_writes_a_readable_recording(tmp_path, capsys):
 
 
 def test_demo_recording_is_rendered_once_and_atomically(tmp_path, monkeypatch):
-    import stereotrack.scenes as scenes
+    import stereotrack.simulation.presets as scenes
 
     real = scenes.make_preset
     monkeypatch.setattr(scenes, "make_preset", lambda name, **kw: real(name, **dict(kw, n_frames=4, width=160, height=120)))
@@ -249,7 +270,7 @@ def test_committed_demo_calibration_is_the_pendulum4_rig():
 
     from stereotrack.camera import load_rig
 
-    committed = load_rig(Path(__file__).resolve().parent.parent / "calib" / "demo.yaml")
+    committed = load_rig(Path(__file__).resolve().parents[2] / "calib" / "demo.yaml")
     rig = make_preset("pendulum4").rig.build()
     assert committed.world == "custom" and committed.names == rig.names
     for a, b in zip(committed.cameras, rig.cameras):
@@ -264,7 +285,7 @@ def test_committed_demo_calibration_is_the_pendulum4_rig():
 def test_readme_scene_examples_load_and_render(tmp_path):
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     section = readme.split("<!-- section: synth -->")[1].split("<!-- /section: synth -->")[0]
     blocks = [b.split("```")[0] for b in section.split("```yaml\n")[1:]]
     assert len(blocks) == 2
@@ -279,7 +300,7 @@ def test_readme_scene_examples_load_and_render(tmp_path):
 
 
 def test_motion_blur_smears_a_fast_ball_along_its_motion():
-    from stereotrack.trajectories import Line
+    from stereotrack.simulation.trajectories import Line
 
     fast = Line((-0.6, 1.5, 0.0), (0.6, 1.5, 0.0), period=0.8)  # 3 m/s across the image
     widths = {}

@@ -1,4 +1,4 @@
-"""Colour-window likelihood of particles (paper eq. 14), vectorised over particles.
+"""The colour-window likelihood of the paper (eq. 14), vectorised over particles: ``tracker.likelihood: colour_window``.
 
     p(z | x) = prod_c max(1, r_c) / W^2
 
@@ -14,8 +14,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ...camera import Camera
+from ...config import Target, TrackerSettings
+from ...evidence.gather import CameraEvidence
+from ...results import TrackedBalls
 from .. import kernels
-from ..camera import Camera
 
 
 def window_counts(integral: np.ndarray, uv: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray:
@@ -57,3 +60,22 @@ def likelihood(
     for cam, integ in zip(cameras, integrals):
         kernels.camera_likelihood(out, positions, *cam._kernel_arrays, integ, window, cam.centre, centres, radii)
     return out
+
+
+class Model:
+    """Eq. 14 over the target's mask in every camera: the product of max(1, r_c) / W^2."""
+
+    def __init__(self, window: int, occlusion: bool = True):
+        self.window = window  # W, pixels (odd)
+        self.occlusion = occlusion  # a camera whose view a ball of another colour blocks says nothing
+
+    @classmethod
+    def from_settings(cls, settings: TrackerSettings, target: Target) -> Model:
+        return cls(settings.window, settings.occlusion)
+
+    def __call__(self, positions: np.ndarray, views: Sequence[CameraEvidence], occluders: TrackedBalls | None) -> np.ndarray:
+        blockers = (occluders.centres, occluders.radii) if self.occlusion and occluders is not None and len(occluders) else None
+        return likelihood([v.camera for v in views], [v.integral for v in views], positions, self.window, blockers)
+
+
+ColourWindow = Model

@@ -1,8 +1,8 @@
 import numpy as np
 
 from stereotrack.camera import Camera, intrinsics_from_fov, look_at
-from stereotrack.colour import integral_image
-from stereotrack.likelihood import likelihood, window_counts
+from stereotrack.evidence.colour import integral_image
+from stereotrack.particles.likelihoods.colour_window import likelihood, window_counts
 
 
 def brute_force_counts(mask, uv, window):
@@ -50,7 +50,7 @@ def test_likelihood_is_product_with_floor():
 
 
 def test_hidden_by_balls_is_the_shadow_behind_a_ball_only():
-    from stereotrack.likelihood import hidden_by_balls
+    from stereotrack.particles.likelihoods.colour_window import hidden_by_balls
 
     K = intrinsics_from_fov(64, 48, 60)
     R, t = look_at((0, 0, 0), (0, 0, 1))
@@ -66,3 +66,35 @@ def test_hidden_by_balls_is_the_shadow_behind_a_ball_only():
         ]
     )
     assert list(hidden_by_balls(cam, pts, ball, np.array([0.035]))) == [True, True, False, False, False]
+
+
+def test_models_are_the_files_of_the_likelihoods_folder_and_a_wrong_name_is_one_clear_error():
+    import pytest
+
+    from stereotrack.config import Target, TrackerSettings
+    from stereotrack.errors import StereotrackError
+    from stereotrack.particles.likelihoods import available, make_likelihood
+    from stereotrack.particles.likelihoods.colour_window import ColourWindow
+
+    pink = Target("pink", (140, 60, 50), (175, 255, 255))
+    assert "colour_window" in available()
+    model = make_likelihood(TrackerSettings(window=7), pink)
+    assert isinstance(model, ColourWindow) and model.window == 7
+    with pytest.raises(StereotrackError, match="unknown model 'colour_windw'.*colour_window"):
+        make_likelihood(TrackerSettings(likelihood="colour_windw"), pink)
+
+
+def test_the_colour_window_model_is_eq_14_over_the_evidence():
+    """The model behind the interface gives what the eq. 14 function gives on the same masks."""
+    from scene_helpers import RADIUS, default_rig, disc_masks, evidence
+
+    from stereotrack.particles.likelihoods.colour_window import ColourWindow
+
+    rig = default_rig()
+    balls = np.array([[0.0, 1.5, 0.0], [0.2, 1.9, 0.1]])
+    masks, integrals = disc_masks(rig, balls)
+    rng = np.random.default_rng(3)
+    X = np.vstack([balls, balls[0] + rng.normal(0, 2 * RADIUS, (200, 3))])
+    got = ColourWindow(5)(X, evidence(rig, masks), None)
+    assert np.array_equal(got, likelihood(rig.cameras, integrals, X, 5))
+    assert got[0] == 1.0 and got.min() < 0.01

@@ -6,7 +6,11 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.baseline import (
+from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at, triangulate_points
+from stereotrack.config import config_from_dict
+from stereotrack.errors import StereotrackError
+from stereotrack.frames import FramePair
+from stereotrack.pipeline.baseline import (
     BaselineTracker,
     epipolar_distances,
     fundamental_matrix,
@@ -14,12 +18,8 @@ from stereotrack.baseline import (
     match_epipolar,
     triangulate_pairs,
 )
-from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at, triangulate_points
-from stereotrack.config import config_from_dict
-from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair
 
-DATA = Path(__file__).parent / "data" / "tabletennis-2cam"
+DATA = Path(__file__).parents[1] / "data" / "tabletennis-2cam"
 DIST = np.array([-0.28, 0.09, 0.001, -0.0005, -0.01])
 GREEN = {"name": "green", "hsv_min": [50, 120, 80], "hsv_max": [70, 255, 255], "radius": 0.035}
 

@@ -1,8 +1,8 @@
 import numpy as np
-from scene_helpers import RADIUS, default_rig, disc_masks
+from scene_helpers import RADIUS, balls_at, default_rig, disc_masks, evidence
 
-from stereotrack.abduction import find_blobs
-from stereotrack.explain import ExplainSettings, explain
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.objects.explain import ExplainSettings, explain
 from stereotrack.results import Object3D
 
 
@@ -18,12 +18,11 @@ def test_stereo_ghosts_are_dropped_and_balls_kept():
     rig = default_rig()
     a, b = np.array([-0.1, 1.2, 0.0]), np.array([0.1, 1.6, 0.0])
     masks, _ = disc_masks(rig, np.array([a, b]))
-    blobs = [find_blobs(m) for m in masks]
     c0, c1 = rig.cameras
     ua, ub = c0.project(np.array([a, b]))[0], c1.project(np.array([a, b]))[0]
     ghosts = [rig.triangulate([ua[0], ub[1]]), rig.triangulate([ua[1], ub[0]])]
     objects = [obj(g) for g in ghosts] + [obj(a), obj(b)]
-    kept, into = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS))
+    kept, into = explain(objects, evidence(rig, masks), ExplainSettings(radius=RADIUS))
     assert len(kept) == 2
     assert list(into[:2]) == [-1, -1]
     found = np.array([o.position for o in kept])
@@ -46,7 +45,7 @@ def test_a_ball_in_a_shared_blob_takes_the_depth_where_the_discs_make_up_the_blo
     biased = b - 0.08 * ray0
     objects = [obj(a, ray1, 0.03), obj(biased, ray0, 0.1)]
     for fit, worst in ((True, 0.025), (False, None)):
-        kept, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS, disc_fit=fit))
+        kept, _ = explain(objects, evidence(rig, masks), ExplainSettings(radius=RADIUS, disc_fit=fit))
         assert len(kept) == 2
         error = np.linalg.norm(kept[1].position - b)
         if worst is not None:
@@ -71,10 +70,9 @@ def test_a_ball_cut_by_a_nearer_ball_of_another_colour_is_not_placed_by_its_cut_
     masks = [p & (1 - o) for p, o in zip(pink_masks, orange_masks)]
     cut = [int(p.sum() - m.sum()) for p, m in zip(pink_masks, masks)]
     assert cut[0] > 60 and cut[1] == 0  # cut in cam0 only
-    blobs = [find_blobs(m) for m in masks]
     objects = [obj(pink + 0.004 * ray0)]  # the particles are right, to within their noise
-    occluders = (orange[None], np.array([RADIUS]))
-    naive, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS))
-    told, _ = explain(objects, rig.cameras, blobs, ExplainSettings(radius=RADIUS), occluders=occluders)
+    occluders = balls_at(orange[None], target="orange")
+    naive, _ = explain(objects, evidence(rig, masks), ExplainSettings(radius=RADIUS))
+    told, _ = explain(objects, evidence(rig, masks), ExplainSettings(radius=RADIUS), occluders=occluders)
     assert np.linalg.norm(naive[0].position - pink) > 0.04  # triangulating the cut centroid is far off in depth
     assert np.linalg.norm(told[0].position - pink) < 0.01

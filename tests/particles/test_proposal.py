@@ -1,9 +1,10 @@
 import cv2
 import numpy as np
-from scene_helpers import RADIUS, default_rig, disc_masks
+from scene_helpers import RADIUS, default_rig, disc_masks, evidence
 
-from stereotrack.abduction import depth_range_from_size, find_blobs, particles_on_rays, ray_crossings
 from stereotrack.camera import Camera, intrinsics_from_fov, look_at
+from stereotrack.evidence.blobs import find_blobs
+from stereotrack.particles.proposal import depth_range_from_size, particles_on_rays, ray_crossings
 
 
 def disc_mask(centres, radius, shape=(480, 640)):
@@ -59,11 +60,10 @@ def test_ray_crossings_find_each_ball_and_skip_blobs_of_the_wrong_size():
     rig = default_rig()
     balls = np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1], [0.3, 2.2, 0.1]])  # apart in both views
     masks, _ = disc_masks(rig, balls)
-    blobs = [find_blobs(m) for m in masks]
-    crossings = ray_crossings(rig.cameras, blobs, RADIUS, 0.2, 5.0)
+    crossings = ray_crossings(evidence(rig, masks), RADIUS, 0.2, 5.0)
     for ball in balls:
         assert np.linalg.norm(crossings - ball, axis=1).min() < 0.01
     assert len(crossings) < 9  # fewer than every pair: ghosts off the epipolar lines or of the wrong size are gone
     # The same three balls drawn five times too large (a poster, not a ball at that depth): no crossing.
     posters, _ = disc_masks(rig, balls, radius=5 * RADIUS)
-    assert len(ray_crossings(rig.cameras, [find_blobs(m) for m in posters], RADIUS, 0.2, 5.0)) == 0
+    assert len(ray_crossings(evidence(rig, posters), RADIUS, 0.2, 5.0)) == 0

@@ -5,16 +5,18 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+import yaml
 
 from stereotrack.recording import open_recording
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FPS = 30.0
 SIM = ["--width", "320", "--height", "240", "--fps", "30"]
 
@@ -56,7 +58,8 @@ def check_session(folder: Path, stderr: str):
     reported = int(re.search(r"(\d+) pairs in ", stderr).group(1))
     rows = frames_csv_rows(folder)
     assert np.array_equal(rows[:, 0], np.arange(len(rows)))
-    counts = [video_frame_count(folder / f"cam{i}.mkv") for i in range(2)]
+    videos = yaml.safe_load((folder / "meta.yaml").read_text())["videos"]
+    counts = [video_frame_count(folder / videos[f"cam{i}"]) for i in range(2)]
     assert len(rows) == counts[0] == counts[1] == reported
     spread = np.abs(rows[:, 1] - rows[:, 2])
     assert spread.max() <= 0.5 / FPS
@@ -113,7 +116,7 @@ def test_interrupted_recording_leaves_a_complete_folder(tmp_path, sig):
     assert proc.returncode == 0, stderr
     assert f"stopped by {sig.name}" in stderr and "Traceback" not in stderr
     check_session(out, stderr)
-    assert {p.name for p in out.iterdir()} == {"meta.yaml", "cam0.mkv", "cam1.mkv", "frames.csv"}
+    assert {p.name for p in out.iterdir()} == {"meta.yaml", "calib.yaml", "config.yaml", "cam0.avi", "cam1.avi", "frames.csv"}
 
 
 def test_killed_recording_is_readable_up_to_its_last_complete_pair(tmp_path):
@@ -143,16 +146,26 @@ def test_a_camera_that_stops_ends_the_recording_within_3s_and_keeps_it(tmp_path)
         stderr=subprocess.PIPE,
         text=True,
     )
+    said = {}  # when each stderr line appeared: the command's decision, not the interpreter's teardown after it
+
+    def read_stderr():
+        for line in proc.stderr:
+            said.setdefault(line.split(":")[0], time.monotonic())
+            said.setdefault("text", "")
+            said["text"] += line
+
+    reader = threading.Thread(target=read_stderr, daemon=True)
+    reader.start()
     last_rows, last_growth = 0, time.monotonic()
     while proc.poll() is None:
         n = rows_now(out)
         if n != last_rows:
             last_rows, last_growth = n, time.monotonic()
         time.sleep(0.02)
-    ended = time.monotonic()
-    stderr = proc.stderr.read()
+    reader.join(10)
+    stderr = said.get("text", "")
     assert proc.returncode == 2
-    assert ended - last_growth < 3.0  # the bound: exit within 3 s of the last frame
+    assert said["error"] - last_growth < 3.0, stderr  # the bound: stopped and said so within 3 s of the last frame
     error_lines = [line for line in stderr.splitlines() if line.startswith("error:")]
     assert len(error_lines) == 1 and "Traceback" not in stderr
     assert re.search(
@@ -186,7 +199,7 @@ def test_record_with_a_calibration_of_the_wrong_size_stops_with_a_message(tmp_pa
     res = run(
         "record", "--cam0", "sim:dots", "--cam1", "sim:dots", *SIM, "--calib", str(tmp_path / "calib.yaml"), "--out", str(tmp_path / "r")
     )
-    assert res.returncode == 2 and "is 640x480 but the cameras deliver 320x240" in res.stderr, res.stderr
+    assert res.returncode == 2 and "is 640x480 but camera cam0 (sim:dots) delivers 320x240" in res.stderr, res.stderr
 
 
 def test_cameras_checks_sync_of_simulated_cameras():
@@ -206,8 +219,8 @@ def test_cameras_says_clearly_when_there_are_none():
 # --------------------------------------------------------------------------- live
 
 
-def test_live_tracks_simulated_cameras_and_records_what_it_tracked(tmp_path):
-    out, rec_dir = tmp_path / "tracks.csv", tmp_path / "rec"
+def test_live_records_every_pair_and_its_replay_gives_identical_tracks(tmp_path):
+    out, rec_dir, replay = tmp_path / "tracks.csv", tmp_path / "rec", tmp_path / "replay.csv"
     res = run(
         "live",
         "--cam0",
@@ -224,19 +237,27 @@ def test_live_tracks_simulated_cameras_and_records_what_it_tracked(tmp_path):
         str(rec_dir),
     )
     assert res.returncode == 0, res.stderr
-    m = re.search(r"tracked (\d+) frames .*latency median (\d+) ms, 95% (\d+) ms", res.stderr)
+    m = re.search(
+        r"tracked (\d+) of (\d+) pairs .*; (\d+) skipped while the tracker was busy; .*latency median (\d+) ms, 95% (\d+) ms", res.stderr
+    )
     assert m, res.stderr
-    tracked = int(m.group(1))
-    assert tracked >= 5
+    tracked, formed, skipped = (int(m.group(i)) for i in (1, 2, 3))
+    assert tracked >= 5 and tracked + skipped == formed
     rec = open_recording(rec_dir)
-    # the recording holds exactly the pairs the tracker saw, with the rig and targets in force
-    assert rec.n_frames == tracked and rec.rig is not None and rec.targets_path.is_file()
+    # every pair the cameras delivered is recorded, with the rig and targets in force; tracked.csv names the tracked ones
+    assert rec.n_frames == formed and rec.rig is not None and rec.targets_path.is_file()
+    assert len(rec.tracked_frames) == tracked and np.all(np.diff(rec.tracked_frames) > 0)
     assert np.abs(rec.timestamps[:, 0] - rec.timestamps[:, 1]).max() <= 0.5 / FPS
     rows = np.loadtxt(out, delimiter=",", skiprows=1, usecols=range(6), ndmin=2)
-    assert len(rows) > 0 and set(rows[:, 0]) <= set(range(tracked))
+    assert len(rows) > 0 and set(rows[:, 0]) <= set(rec.tracked_frames)
     # the pendulum balls hang 1 to 2.2 m in front of the cameras (y forward in the scene's world); at
     # 320x240 the far balls are ~4 px wide and a stereo ghost can live for a few frames, so allow 5 %
     assert np.mean((rows[:, 4] > 0.5) & (rows[:, 4] < 3.0)) >= 0.95
+    # The replay of the live run: the same frames, pixels and time steps, hence the same tracks, byte for byte.
+    res = run("track", str(rec_dir), "--out", str(replay), "--quiet")
+    assert res.returncode == 0, res.stderr
+    assert f"replaying the {tracked} frames the live run tracked, of {formed} recorded" in res.stderr
+    assert replay.read_text() == out.read_text()
 
 
 def test_live_without_calibration_for_real_cameras_says_what_to_pass(tmp_path):

@@ -23,9 +23,12 @@ import pytest
 from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at
 from stereotrack.config import Config, Target
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair
+from stereotrack.frames import FramePair
 from stereotrack.results import FrameResult, Object3D, ParticleSet, TrackEstimate
-from stereotrack.viz import RerunSink, VizOutputs, VizSettings, add_viz_arguments, make_viz_sink, rerun_executable, target_colour
+from stereotrack.sinks.viewer.flags import add_viz_arguments, make_viz_sink
+from stereotrack.sinks.viewer.process import rerun_executable
+from stereotrack.sinks.viewer.sink import RerunSink, VizOutputs, VizSettings
+from stereotrack.sinks.viewer.style import target_colour
 
 RERUN = rerun_executable()
 W, H = 320, 240
@@ -314,7 +317,7 @@ def test_flags_and_no_viewer_means_no_rerun(tmp_path):
         with pytest.raises(SystemExit):
             parser.parse_args(bad)
     # Without a viewer flag nothing imports rerun.
-    code = "import sys, stereotrack.viz, stereotrack.results; assert 'rerun' not in sys.modules, 'rerun imported'"
+    code = "import sys, stereotrack.sinks.viewer, stereotrack.results; assert 'rerun' not in sys.modules, 'rerun imported'"
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
 
 
@@ -329,9 +332,9 @@ SCRIPT = textwrap.dedent(
     import sys
     import numpy as np
     sys.path.insert(0, {tests!r})
-    from test_viz import make_rig, make_result, TARGETS
+    from test_viewer import make_rig, make_result, TARGETS
     from stereotrack.config import Config
-    from stereotrack.viz import RerunSink, VizOutputs
+    from stereotrack.sinks.viewer import RerunSink, VizOutputs
     rig, rng = make_rig(), np.random.default_rng(0)
     sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd={rrd!r}))
     try:
@@ -423,7 +426,7 @@ def small_recording(tmp_path_factory):
 
 
 def test_track_command_rrd_matches_tracks_csv(small_recording, tmp_path):
-    from stereotrack.trackfile import read_tracks
+    from stereotrack.sinks.tracks_csv import read_tracks
 
     rrd, csv = tmp_path / "t.rrd", tmp_path / "tracks.csv"
     out = _cli("track", str(small_recording), "--out", str(csv), "--rrd", str(rrd), "--quiet")
@@ -489,9 +492,9 @@ def test_served_viewer_dies_with_a_killed_tracker(tmp_path):
         textwrap.dedent(f"""
         import sys, time
         sys.path.insert(0, {str(Path(__file__).parent)!r})
-        from test_viz import make_rig, TARGETS
+        from test_viewer import make_rig, TARGETS
         from stereotrack.config import Config
-        from stereotrack.viz import RerunSink, VizOutputs
+        from stereotrack.sinks.viewer import RerunSink, VizOutputs
         sink = RerunSink(make_rig(), Config(targets=TARGETS), VizOutputs(serve=True, grpc_port={grpc_port}, web_port={web_port}))
         print(sink._children[0].pid, flush=True)
         time.sleep(120)
@@ -518,7 +521,7 @@ def test_served_viewer_dies_with_a_killed_tracker(tmp_path):
 def test_quaternions_match_scipy_for_all_rotations():
     from scipy.spatial.transform import Rotation
 
-    from stereotrack.viz import quaternions_xyzw
+    from stereotrack.sinks.viewer.style import quaternions_xyzw
 
     rng = np.random.default_rng(5)
     R = Rotation.random(500, random_state=rng).as_matrix()
@@ -556,7 +559,7 @@ def test_live_sink_skips_frames_rather_than_hold_the_tracker(tmp_path, monkeypat
 
 def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
     """Frames are sent as columns in batches; the file holds the same as if each frame were sent on its own."""
-    import stereotrack.viz as viz
+    import stereotrack.sinks.viewer.sink as viz  # the module whose constants the sink reads
 
     truth = truth_for(range(12))
     files = {}
@@ -584,13 +587,13 @@ def test_batches_hold_the_same_as_frame_by_frame(tmp_path, monkeypatch):
 
 
 def test_a_slow_camera_gets_its_frames_sent_without_a_full_batch(tmp_path, monkeypatch):
-    import stereotrack.viz as viz
+    import stereotrack.sinks.viewer.sink as viz  # the module whose constants the sink reads
 
     rig, rng = make_rig(), np.random.default_rng(0)
     monkeypatch.setattr(viz, "FILE_BATCH_SECONDS", viz.BATCH_SECONDS)  # as when a viewer watches (a file alone waits longer)
     sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "slow.rrd"), VizSettings(images=False))
-    sent, send = [], sink._send
-    monkeypatch.setattr(sink, "_send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
+    sent, send = [], sink.columns.send
+    monkeypatch.setattr(sink.columns, "send", lambda batch: (sent.append((time.monotonic(), [b.index for b in batch])), send(batch)))
     start = time.monotonic()
     for f in range(2):
         sink.write(make_result(rig, f, rng, n_particles=60))

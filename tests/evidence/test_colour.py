@@ -2,9 +2,9 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.colour import camera_masks, learn_target, target_mask, to_hsv
 from stereotrack.config import Target
 from stereotrack.errors import StereotrackError
+from stereotrack.evidence.colour import camera_masks, learn_target, target_mask, to_hsv
 
 
 def hsv_image(h, s, v, shape=(4, 4)):

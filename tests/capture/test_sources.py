@@ -4,10 +4,12 @@ import cv2
 import numpy as np
 import pytest
 
-from stereotrack.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.cameras import CameraPairSource, Pairer
+from stereotrack.capture.devices import CaptureSettings, SimulatedCamera, VideoFileCamera, open_device
+from stereotrack.capture.replay import RecordingSource, paced
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import FramePair, RecordingWriter
-from stereotrack.sources import CameraPairSource, Pairer, RecordingSource, paced
+from stereotrack.frames import FramePair
+from stereotrack.recording import RecordingWriter, decode_jpeg
 
 FPS = 30.0
 PERIOD = 1.0 / FPS
@@ -140,7 +142,7 @@ def test_paced_replay_skips_what_a_slow_consumer_missed():
     assert np.diff(yielded).max() <= 4
     clock = FakeClock()
     slow_all = []
-    for _pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
+    for pair in paced(pairs_of(times), np.column_stack([times, times]), skip_late=False, clock=clock, sleep=clock.sleep):
         slow_all.append(pair.index)
         clock.now += 0.1
     assert slow_all == list(range(30))
@@ -149,7 +151,7 @@ def test_paced_replay_skips_what_a_slow_consumer_missed():
 def write_recording(folder, n=6, size=(64, 48)):
     rng = np.random.default_rng(7)
     frames = [[rng.integers(0, 256, (size[1], size[0], 3), dtype=np.uint8) for _ in range(2)] for _ in range(n)]
-    with RecordingWriter(folder, ["cam0", "cam1"], size, FPS) as w:
+    with RecordingWriter(folder, ["cam0", "cam1"], size, FPS, codec="ffv1") as w:
         for i, imgs in enumerate(frames):
             w.write(imgs, [i * PERIOD, i * PERIOD + 0.001])
     return frames
@@ -193,9 +195,12 @@ def test_simulated_camera_behaves_like_a_videocapture():
 def test_simulated_views_of_one_scene_are_different_images():
     a = open_device("sim:pendulum4,jitter=0,drop=0", 0, SMALL)
     b = open_device("sim:pendulum4,jitter=0,drop=0", 1, SMALL)
-    ok_a, img_a = a.read()
-    ok_b, img_b = b.read()
-    assert ok_a and ok_b and img_a.shape == img_b.shape == (120, 160, 3)
+    ok_a, jpeg_a = a.read()
+    ok_b, jpeg_b = b.read()
+    # asked for MJPG (the default), they send JPEGs as webcams do: the raw buffer, decoded by the consumer
+    assert ok_a and ok_b and jpeg_a.shape[0] == 1 and bytes(jpeg_a[0, :2]) == b"\xff\xd8"
+    img_a, img_b = decode_jpeg(jpeg_a), decode_jpeg(jpeg_b)
+    assert img_a.shape == img_b.shape == (120, 160, 3)
     assert np.abs(img_a.astype(int) - img_b.astype(int)).mean() > 1.0
     a.release()
     b.release()
@@ -283,3 +288,32 @@ def test_video_files_play_at_their_rate_and_end_the_source(tmp_path):
 def test_fewer_than_two_cameras_or_a_rig_of_another_size_is_refused():
     with pytest.raises(StereotrackError, match="at least two cameras"):
         CameraPairSource(["sim:dots"])
+
+
+def test_a_simulated_camera_keeps_a_few_frames_however_often_its_scene_loops():
+    """The scene (pendulum4: 300 frames) loops under a camera that runs for ever: memory must stay flat."""
+    from stereotrack.capture.devices import _SharedScene
+
+    scene = _SharedScene("pendulum4", 64, 48, 30.0)
+    for k in range(2 * scene.n_frames + 20):
+        assert scene.frame(k, 0).shape == scene.frame(k, 1).shape == (48, 64, 3)
+    assert len(scene._cache) <= _SharedScene.KEEP  # was: every frame of the scene after the first loop
+
+
+def test_every_source_has_what_the_source_protocol_promises(tmp_path):
+    from stereotrack.frames import Source
+
+    folder = tmp_path / "rec"
+    with RecordingWriter(folder, ["cam0", "cam1"], (64, 48), 30.0) as w:
+        for i in range(3):
+            w.write([np.zeros((48, 64, 3), np.uint8)] * 2, [i / 30.0] * 2)
+    replay = RecordingSource(folder)
+    live = CameraPairSource(["sim:dots", "sim:dots"], settings=CaptureSettings(width=64, height=48, fps=30.0))
+    try:
+        for source in (replay, live):
+            for name in [n for n in Source.__annotations__] + ["stats", "close", "__iter__"]:
+                assert hasattr(source, name), (type(source).__name__, name)
+        assert replay.n_frames == 3 and len(list(replay)) == 3 and live.n_frames is None
+    finally:
+        replay.close()
+        live.close()

@@ -1,0 +1,154 @@
+"""Compiled loops of the particle stage: window counts, likelihood, occlusion, exclusion, resampling, ray crossings.
+
+See ``stereotrack/kernels.py`` for how kernels are compiled, cached and warmed up.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..kernels import _sqdist, kernel, project_points
+
+
+@kernel
+def crossing_points(o1, d1, r1, use1, o2, d2, r2, use2, R1, t1, f1, R2, t2, f2, radius, d_min, d_max, slack):
+    """Midpoints of the closest approach of every pair of rays, one from each of two cameras, that
+    (nearly) meet: closer than ``radius``, between ``d_min`` and ``d_max`` along both rays, and with
+    both blobs (radii ``r1``, ``r2`` in pixels) within ``slack`` times the size a ball of that radius
+    has there (camera rotation R, translation t, focal length f). Blobs not in ``use1``/``use2`` are
+    skipped. Rays: origins and unit directions, A x 3 and B x 3. Returns K x 3."""
+    out = np.empty((o1.shape[0] * o2.shape[0], 3))
+    n = 0
+    log_slack = math.log(slack)
+    for a in range(o1.shape[0]):
+        if not use1[a]:
+            continue
+        for b in range(o2.shape[0]):
+            if not use2[b]:
+                continue
+            w0, w1, w2 = o1[a, 0] - o2[b, 0], o1[a, 1] - o2[b, 1], o1[a, 2] - o2[b, 2]
+            cos = d1[a, 0] * d2[b, 0] + d1[a, 1] * d2[b, 1] + d1[a, 2] * d2[b, 2]
+            dd = w0 * d1[a, 0] + w1 * d1[a, 1] + w2 * d1[a, 2]
+            e = w0 * d2[b, 0] + w1 * d2[b, 1] + w2 * d2[b, 2]
+            den = max(1.0 - cos * cos, 1e-9)
+            s = (cos * e - dd) / den
+            t = (e - cos * dd) / den
+            if not (s > d_min and s < d_max and t > d_min and t < d_max):
+                continue
+            p = np.empty(3)
+            gap = 0.0
+            for i in range(3):
+                p1 = o1[a, i] + s * d1[a, i]
+                p2 = o2[b, i] + t * d2[b, i]
+                p[i] = 0.5 * (p1 + p2)
+                gap += (p1 - p2) ** 2
+            if not math.sqrt(gap) < radius:
+                continue
+            z1 = R1[2, 0] * p[0] + R1[2, 1] * p[1] + R1[2, 2] * p[2] + t1[2]
+            z2 = R2[2, 0] * p[0] + R2[2, 1] * p[1] + R2[2, 2] * p[2] + t2[2]
+            size1 = abs(math.log(max(r1[a], 0.5) / (f1 * radius / max(z1, 1e-6))))
+            size2 = abs(math.log(max(r2[b], 0.5) / (f2 * radius / max(z2, 1e-6))))
+            if size1 < log_slack and size2 < log_slack:
+                out[n] = p
+                n += 1
+    return out[:n].copy()
+
+
+@kernel
+def systematic_resample(weights, n, u0):
+    """Systematic resampling: ``n`` indices drawn with probabilities ``weights`` (summing to 1), at
+    the points (u0 + i) / n of the weights' cumulative sum (u0 uniform in [0, 1))."""
+    m = weights.shape[0]
+    out = np.empty(n, np.int64)
+    cdf = np.cumsum(weights)
+    cdf[m - 1] = 1.0
+    j = 0
+    for i in range(n):
+        u = (u0 + i) / n
+        while j < m - 1 and cdf[j] <= u:
+            j += 1
+        out[i] = j
+    return out
+
+
+@kernel
+def window_counts(integral, uv, valid, window):
+    """Mask pixels in the W x W window centred on each pixel position (N x 2), from the mask's
+    summed-area table ((H+1) x (W+1)). Windows past the image edge count their inside part;
+    positions outside the image, NaN or not ``valid`` count 0."""
+    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+    half = window // 2
+    out = np.zeros(uv.shape[0], np.int64)
+    for i in range(uv.shape[0]):
+        u, v = uv[i, 0], uv[i, 1]
+        if not (valid[i] and u > -1.0 and v > -1.0 and u < w + 1.0 and v < h + 1.0):
+            continue  # also NaN
+        cx, cy = int(np.rint(u)), int(np.rint(v))
+        if cx < 0 or cx >= w or cy < 0 or cy >= h:
+            continue
+        x0, x1 = max(cx - half, 0), min(cx + half + 1, w)
+        y0, y1 = max(cy - half, 0), min(cy + half + 1, h)
+        out[i] = integral[y1, x1] - integral[y0, x1] - integral[y1, x0] + integral[y0, x0]
+    return out
+
+
+@kernel
+def hidden_by_balls(eye, positions, centres, radii):
+    """Points whose line of sight from ``eye`` passes through a ball in front of them (N bool).
+    A point inside a ball is not hidden by that ball."""
+    n = positions.shape[0]
+    hidden = np.zeros(n, np.bool_)
+    for i in range(n):
+        p0, p1, p2 = positions[i, 0] - eye[0], positions[i, 1] - eye[1], positions[i, 2] - eye[2]
+        dist = max(math.sqrt(p0 * p0 + p1 * p1 + p2 * p2), 1e-12)
+        for b in range(centres.shape[0]):
+            v0, v1, v2 = centres[b, 0] - eye[0], centres[b, 1] - eye[1], centres[b, 2] - eye[2]
+            along = (p0 * v0 + p1 * v1 + p2 * v2) / dist
+            perp2 = v0 * v0 + v1 * v1 + v2 * v2 - along * along
+            if perp2 < radii[b] * radii[b] and along > 0.0 and along < dist - radii[b]:
+                hidden[i] = True
+                break
+    return hidden
+
+
+@kernel
+def camera_likelihood(out, positions, R, t, K, k, tilt, integral, window, eye, occ_centres, occ_radii):
+    """Multiply ``out`` (N) by one camera's eq. 14 factor max(1, r) / W^2 for every particle; a
+    particle hidden from this camera (``eye``) by an occluding ball counts 1 there."""
+    uv, front, _ = project_points(positions, R, t, K, k, tilt)
+    r = window_counts(integral, uv, front, window)
+    hidden = hidden_by_balls(eye, positions, occ_centres, occ_radii)
+    area = float(window * window)
+    for i in range(positions.shape[0]):
+        if not hidden[i]:
+            out[i] *= max(1, r[i]) / area
+
+
+@kernel
+def intruders(points, owners, centres, radii, ball_ids):
+    """Per point: it follows a ball (owner id >= 0) but lies inside another ball (N bool)."""
+    out = np.zeros(points.shape[0], np.bool_)
+    for i in range(points.shape[0]):
+        if owners[i] < 0:
+            continue
+        for b in range(centres.shape[0]):
+            if ball_ids[b] != owners[i] and _sqdist(points, i, centres, b) < radii[b] * radii[b]:
+                out[i] = True
+                break
+    return out
+
+
+@kernel
+def nearest_within(points, centres, limit):
+    """Per point: the index of the nearest centre if it is closer than ``limit`` (metres), else -1."""
+    out = np.full(points.shape[0], -1, np.int64)
+    for i in range(points.shape[0]):
+        best = limit * limit
+        for c in range(centres.shape[0]):
+            d2 = _sqdist(points, i, centres, c)
+            if d2 < best:
+                best = d2
+                out[i] = c
+    return out

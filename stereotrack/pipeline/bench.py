@@ -1,0 +1,44 @@
+"""Timing the tracker step against the floor: the least any colour tracker does per frame (HSV, then a threshold per target)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Sequence
+
+import cv2
+import numpy as np
+
+from ..camera import Rig
+from ..config import Config, Target
+from ..evidence.colour import target_mask
+from ..frames import FramePair
+from .tracker import Tracker
+
+
+def floor(images: Sequence[np.ndarray], targets: Sequence[Target]) -> None:
+    """Convert every camera's frame to HSV and threshold it once per target."""
+    for img in images:
+        hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+        for t in targets:
+            target_mask(hsv, t)
+
+
+def bench_case(frames: Iterable[FramePair], rig: Rig, config: Config, warmup: int = 10) -> dict[str, float]:
+    """Median ms per stage, of the step, of the floor, and of step / floor, each frame timed floor then step back to back."""
+    tracker = Tracker(rig, config)
+    floor_ms, step_ms, stages = [], [], {}
+    for i, pair in enumerate(frames):
+        t0 = time.perf_counter()
+        floor(pair.images, config.targets)
+        t1 = time.perf_counter()
+        res = tracker.step(pair)
+        if i < warmup:
+            continue
+        floor_ms.append(1e3 * (t1 - t0))
+        step_ms.append(res.timings_ms["step"])
+        for k, v in res.timings_ms.items():
+            stages.setdefault(k, []).append(v)
+    out = {k: float(np.median(v)) for k, v in stages.items()}
+    out["floor"] = float(np.median(floor_ms))
+    out["ratio"] = float(np.median(np.array(step_ms) / np.array(floor_ms)))
+    return out
