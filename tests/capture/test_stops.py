@@ -234,7 +234,7 @@ def test_commands_started_in_the_background_stop_on_sigint(tmp_path, clips):
         text=True,
         preexec_fn=in_background,
     )
-    wait_for_rows(proc, live, 10)
+    wait_for_rows(proc, live, 90)  # three seconds at 30 fps, so the paced track below is still running when signalled
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0 and "stopped by SIGINT" in err and "Traceback" not in err, err
@@ -246,7 +246,8 @@ def test_commands_started_in_the_background_stop_on_sigint(tmp_path, clips):
         text=True,
         preexec_fn=in_background,
     )
-    time.sleep(3.0)
+    first = proc.stderr.readline()  # the first progress line: tracking has started, at the recording's pace
+    assert first.startswith("tracking"), first + proc.communicate()[1]
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130 and "interrupted by SIGINT" in err and "Traceback" not in err, err
