@@ -269,7 +269,10 @@ def starting_point(views: ViewSet, board: Board, options: CalibrationOptions) ->
     if n_cams < 2:
         raise StereotrackError("calibration needs at least 2 cameras")
     _check_detections(views, board)
-    flags = options.flags()
+    # The rational model starts from the standard one (k4..k6 = 0): fitted from scratch, its numerator and
+    # denominator grow together along a nearly flat valley (k's in the thousands; at the limit the focal
+    # length trades with k1 / k4), and the joint fit then wandered for minutes to focal lengths 58 % off.
+    flags = options.flags() & ~cv2.CALIB_RATIONAL_MODEL
     dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
     intr: dict[int, Intrinsics] = {}
     for c in range(n_cams):
