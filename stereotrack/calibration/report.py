@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
@@ -12,11 +12,8 @@ import yaml
 from ..camera import Rig
 from .boards import Board, board_to_dict
 from .bundle import CX, CY, FX, BundleResult
-from .measures import CalibrationOptions, Intrinsics, _angle_deg, _common, epipolar_errors
+from .measures import CalibrationOptions, Intrinsics, ViewFit, _angle_deg, _common, epipolar_errors
 from .views import RECOMMENDED_VIEWS, ViewSet, coverage, coverage_grid
-
-if TYPE_CHECKING:
-    from .solve import ViewFit
 
 
 def _verdict(report: dict[str, Any]) -> tuple[str, list[str]]:

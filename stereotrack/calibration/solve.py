@@ -21,7 +21,7 @@ from ..camera import Camera, Rig
 from ..errors import StereotrackError
 from . import bundle
 from .boards import MIN_CORNERS, Board, Detection, board_to_dict, diagnose, flipped
-from .measures import CalibrationOptions, Intrinsics, _angle_deg, _common, _points, _pose
+from .measures import CalibrationOptions, Intrinsics, ViewFit, _angle_deg, _common, _points, _pose
 from .report import _report
 from .views import MIN_VIEWS, RECOMMENDED_VIEWS, ViewSet
 
@@ -317,22 +317,6 @@ def _starting_unknowns(board: Board, dets, intr: dict[int, Intrinsics], R_world,
                 px.append(d.corners)
     corners = bundle.Corners(np.concatenate(view), np.concatenate(cam), np.concatenate(obj), np.concatenate(px))
     return corners, (intrinsics, cam_poses, np.array(board_poses))
-
-
-@dataclass(frozen=True, eq=False)
-class ViewFit:
-    """What the fit says about every view: the detections it used (chessboards relabelled to agree
-    between cameras), where it puts each detected corner, the residuals and the board poses."""
-
-    detections: tuple[tuple[Detection | None, ...], ...]
-    reprojected: tuple[tuple[np.ndarray | None, ...], ...]  # pixels, one row per detected corner
-    board_R: np.ndarray  # (views, 3, 3) board -> world, in the rig's world
-    board_t: np.ndarray  # (views, 3)
-
-    def residuals(self, v: int, c: int) -> np.ndarray | None:
-        """Per corner: reprojected minus detected pixels (n x 2), or None if camera c did not see view v."""
-        d = self.detections[v][c]
-        return None if d is None else self.reprojected[v][c] - d.corners
 
 
 def _view_fit(board: Board, dets, fit: bundle.BundleResult, boards_R: np.ndarray, boards_t: np.ndarray) -> ViewFit:
