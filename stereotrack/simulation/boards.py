@@ -136,6 +136,27 @@ def calibration_rig(n_cams: int, rng: np.random.Generator, size: tuple[int, int]
     return Rig(tuple(cams))
 
 
+def lens_rig(lens: str, rng: np.random.Generator) -> Rig:
+    """Two webcams 20 cm apart with square pixels and off-centre principal points, to test lens models:
+    'ordinary' (59-65 degrees across, radial k1 k2 only: every lens model can describe it) or 'wide'
+    (87-93 degrees, rational distortion with k4 0.7-1.0, which only --rational describes)."""
+    from ..camera import intrinsics_from_fov, look_at
+
+    hfov = {"ordinary": 62.0, "wide": 90.0}[lens]
+    cams = []
+    for k, x in enumerate((-0.1, 0.1)):
+        K = intrinsics_from_fov(640, 480, hfov + rng.uniform(-3, 3))
+        K[0, 2] += rng.uniform(-12, 12)
+        K[1, 2] += rng.uniform(-10, 10)
+        R, t = look_at((x, 0.0, 0.0), (-0.3 * x, 0.0, 1.0))
+        if lens == "ordinary":
+            dist = [rng.uniform(-0.25, -0.05), rng.uniform(0.0, 0.12), 0.0, 0.0, 0.0]
+        else:
+            dist = [rng.uniform(0.3, 0.6), 0.05, 0.0, 0.0, 0.0, rng.uniform(0.7, 1.0), 0.15, 0.0]
+        cams.append(Camera(f"cam{k}", (640, 480), K, np.array(dist), R, t))
+    return Rig(tuple(cams))
+
+
 def poses_seen_by_pairs(rig: Rig, board: Board, n: int, rng: np.random.Generator, **pose_options) -> list[BoardPose]:
     """``n`` board poses, each wholly in view of at least two cameras: with three or more cameras they cycle
     through the neighbouring pairs and all cameras together (others may see the board too, or part of it).
