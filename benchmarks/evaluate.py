@@ -24,11 +24,15 @@ import io
 import json
 import platform
 import re
+import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from sections import keep_sections  # noqa: E402
 
 # (label, preset, fps)
 SCENES = [
@@ -48,6 +52,7 @@ TARGETS = {
     "crossing": {"id_switches": ("<=", 0)},
     "pendulum4": {"id_switches": ("<=", 0), "mota": (">=", 0.97)},
 }
+# Sections of the report that other commands write (`stereotrack stress --docs`, benchmarks/real_footage.py --docs).
 BEAT_BASELINE = ("crossing", "clutter", "juggle5@30", "juggle5@60")
 
 
@@ -206,8 +211,10 @@ def main() -> None:
         results_path.parent.mkdir(parents=True, exist_ok=True)
         results_path.write_text(json.dumps(results, indent=1))
     ordered = {label: results[label] for label, _, _ in SCENES if label in results and label in args.scenes}
-    Path(args.report).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.report).write_text(report(ordered, args))
+    report_path = Path(args.report)
+    report_path.parent.mkdir(parents=True, exist_ok=True)
+    old = report_path.read_text() if report_path.is_file() else ""
+    report_path.write_text(keep_sections(old, report(ordered, args)))  # other scripts' sections (benchmarks/landing.py) stay
     print(f"report written to {args.report}")
 
 

@@ -16,10 +16,9 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
 from .errors import StereotrackError
-from .files import load_yaml
+from .files import dump_yaml, load_yaml, write_text_atomic
 
 _DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
 # Iterative undistortion to machine precision (OpenCV's default stops after 5 steps).
@@ -291,8 +290,8 @@ def _matrix(path, field_name, value, shape) -> np.ndarray:
         raise _fail(path, field_name, f"expected numbers in a {shape[0]}x{shape[1] if len(shape) > 1 else ''} list".rstrip("x")) from None
     if arr.shape != shape:
         raise _fail(path, field_name, f"expected shape {list(shape)}, got {list(arr.shape)}")
-    if not np.all(np.isfinite(arr)):
-        raise _fail(path, field_name, "contains a non-finite number")
+    if not np.all(np.isfinite(arr)) or np.abs(arr).max() > 1e9:
+        raise _fail(path, field_name, "contains a non-finite or absurdly large number")
     return arr
 
 
@@ -303,9 +302,16 @@ def _camera_from_dict(path, i: int, d: Any) -> Camera:
     for key in ("name", "image_size", "K", "R", "t"):
         if key not in d:
             raise _fail(path, f"{where}.{key}", "missing")
-    name = str(d["name"])
+    name = d["name"]
+    if isinstance(name, bool) or not isinstance(name, (str, int)) or not str(name).strip() or any(c in str(name) for c in ",\n\r"):
+        raise _fail(path, f"{where}.name", f"expected a camera name (text without commas), got {name!r:.60}")
+    name = str(name)
     size = d["image_size"]
-    if not (isinstance(size, (list, tuple)) and len(size) == 2 and all(isinstance(v, int) and v > 0 for v in size)):
+    if not (
+        isinstance(size, (list, tuple))
+        and len(size) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) and 0 < v <= 100_000 for v in size)
+    ):
         raise _fail(path, f"{where}.image_size", f"expected [width, height] in whole pixels, got {size!r}")
     K = _matrix(path, f"{where}.K", d["K"], (3, 3))
     if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1) > 1e-9 or np.any(K[1:, 0] != 0) or np.any(K[2, :2] != 0):
@@ -318,6 +324,8 @@ def _camera_from_dict(path, i: int, d: Any) -> Camera:
         raise _fail(path, f"{where}.dist", "expected a list of numbers") from None
     if dist.size not in _DIST_LENGTHS:
         raise _fail(path, f"{where}.dist", f"expected 0, 4, 5, 8, 12 or 14 coefficients, got {dist.size}")
+    if not np.all(np.isfinite(dist)) or np.abs(dist).max(initial=0.0) > 1e6:
+        raise _fail(path, f"{where}.dist", f"expected finite distortion coefficients, got {dist.tolist()}")
     R = _matrix(path, f"{where}.R", d["R"], (3, 3))
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-5 or np.linalg.det(R) < 0:
         raise _fail(path, f"{where}.R", "is not a rotation matrix (R R^T must be I and det(R) = +1)")
@@ -336,7 +344,9 @@ def rig_from_dict(data: Any, path: Path | str = "<calibration>") -> Rig:
     names = [c.name for c in cameras]
     if len(set(names)) != len(names):
         raise _fail(path, "cameras", f"camera names must be unique, got {names}")
-    world = str(data.get("world", cameras[0].name))
+    world = data.get("world", cameras[0].name)
+    if not isinstance(world, str):
+        raise _fail(path, "world", f"expected a camera name ({', '.join(names)}) or 'custom', got {world!r:.60}")
     if world != "custom" and world not in names:
         raise _fail(path, "world", f"expected a camera name ({', '.join(names)}) or 'custom', got {world!r}")
     quality = data.get("quality")
@@ -366,9 +376,7 @@ def load_rig(path: str | Path) -> Rig:
 
 
 def save_rig(rig: Rig, path: str | Path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(yaml.safe_dump(rig_to_dict(rig), sort_keys=False, default_flow_style=None))
+    write_text_atomic(path, dump_yaml(rig_to_dict(rig)))
 
 
 def with_image_size(cam: Camera, size: tuple[int, int]) -> Camera:

@@ -19,10 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from .errors import StereotrackError
-from .files import load_yaml
+from .files import dump_yaml, load_yaml, write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -33,6 +31,7 @@ class Target:
     hsv_min: tuple[int, int, int]  # H 0..179, S and V 0..255
     hsv_max: tuple[int, int, int]  # hsv_min[0] > hsv_max[0]: the hue range wraps around red
     radius: float = 0.035  # ball radius in metres
+    colour_model: str | None = None  # a colour model file learnt by `colour learn` (path resolved from the config's folder)
 
     @property
     def wraps(self) -> bool:
@@ -53,11 +52,26 @@ def setting(default: Any, doc: str, *, low: float | None = None, high: float | N
 class TrackerSettings:
     """The particle tracker (paper sections III-B to III-F)."""
 
-    particles: int = setting(2000, "N, total particles per target", low=1, high=10_000_000)
+    particles: int = setting(2000, "N, total particles per target", low=1, high=1_000_000)  # 10^7 took 34 s a frame: no run ends
     alpha: float = setting(0.2, "share of abductive (importance-sampled) particles, 0..1", low=0.0, high=1.0)
     window: int = setting(5, "colour window W in pixels (odd)", low=1, high=101)
     likelihood: str = setting(
-        "colour_window", "observation model, a file of stereotrack/particles/likelihoods/ (colour_window: the paper's eq. 14)"
+        "ball_shape",
+        "observation model, a file of stereotrack/particles/likelihoods/: ball_shape (a ball-sized disc of evidence with an empty "
+        "ring around it, at the particle's depth) or colour_window (the paper's eq. 14)",
+    )
+    motion: bool = setting(True, "learn each camera's background: the moving part of the colour mask counts as evidence too")
+    background_rate: float = setting(0.05, "how fast the background learns a change, share per frame", low=0.001, high=1.0)
+    foreground_threshold: float = setting(
+        30.0, "grey levels (summed over the three channels) a pixel must differ from the background to be moving", low=1.0, high=254.0
+    )
+    colour_model: bool = setting(
+        True,
+        "learn each target's colours against the background's (hue-saturation histograms, refined online from confirmed "
+        "tracks): a colour common in the room counts less than the ball's",
+    )
+    ball_blobs_only: bool = setting(
+        True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )
     motion_sigma: float = setting(0.02, "random-walk standard deviation per frame, metres", low=0.0, high=10.0)
     d_min: float = setting(0.2, "nearest depth along a viewing ray for abductive particles, metres", low=0.0, high=1000.0)
@@ -220,13 +234,17 @@ def _section(path, name: str, cls, data: Any):
     return cls(**kwargs)
 
 
+def _whole(x: Any) -> bool:
+    """A whole number as YAML gives it: an int, or a float like 150.0 (not a bool, not 150.5, not inf)."""
+    return not isinstance(x, bool) and (isinstance(x, int) or (isinstance(x, float) and math.isfinite(x) and x == int(x)))
+
+
 def _hsv(path, key: str, value: Any) -> tuple[int, int, int]:
     if not (isinstance(value, (list, tuple)) and len(value) == 3):
-        raise _err(path, key, f"expected [H, S, V], got {value!r}")
-    try:
-        h, s, v = (int(x) for x in value)
-    except (TypeError, ValueError):
-        raise _err(path, key, f"expected three whole numbers, got {value!r}") from None
+        raise _err(path, key, f"expected [H, S, V], got {value!r:.80}")
+    if not all(_whole(x) for x in value):
+        raise _err(path, key, f"expected three whole numbers, got {value!r:.80}")
+    h, s, v = (int(x) for x in value)
     if not (0 <= h <= 179 and 0 <= s <= 255 and 0 <= v <= 255):
         raise _err(path, key, f"OpenCV HSV needs H in 0..179 and S, V in 0..255, got {value!r}")
     return (h, s, v)
@@ -239,20 +257,25 @@ def target_from_dict(path, i: int, d: Any) -> Target:
     for key in ("name", "hsv_min", "hsv_max"):
         if key not in d:
             raise _err(path, f"{where}.{key}", "missing")
-    unknown = set(d) - {"name", "hsv_min", "hsv_max", "radius"}
+    unknown = set(d) - {"name", "hsv_min", "hsv_max", "radius", "colour_model"}
     if unknown:
-        raise _err(path, f"{where}.{sorted(unknown)[0]}", "unknown field (expected name, hsv_min, hsv_max, radius)")
+        raise _err(path, f"{where}.{sorted(unknown)[0]}", "unknown field (expected name, hsv_min, hsv_max, radius, colour_model)")
     lo = _hsv(path, f"{where}.hsv_min", d["hsv_min"])
     hi = _hsv(path, f"{where}.hsv_max", d["hsv_max"])
     if lo[1] > hi[1] or lo[2] > hi[2]:
         raise _err(path, where, f"hsv_min {list(lo)} must not exceed hsv_max {list(hi)} in S and V (only H may wrap)")
-    try:
-        radius = float(d.get("radius", Target.radius))
-    except (TypeError, ValueError):
-        raise _err(path, f"{where}.radius", f"expected metres, got {d.get('radius')!r}") from None
-    if not 0.001 <= radius <= 1.0:
-        raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius}")
-    return Target(name=str(d["name"]), hsv_min=lo, hsv_max=hi, radius=radius)
+    radius = d.get("radius", Target.radius)
+    if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not 0.001 <= radius <= 1.0:
+        raise _err(path, f"{where}.radius", f"expected a ball radius in metres (0.001..1), got {radius!r:.80}")
+    name = d["name"]
+    if isinstance(name, bool) or not isinstance(name, (str, int)) or not str(name).strip() or any(c in str(name) for c in ",\n\r"):
+        raise _err(path, f"{where}.name", f"expected a name without commas (it becomes a column of tracks.csv), got {name!r:.80}")
+    model = d.get("colour_model")
+    if model is not None:
+        if not isinstance(model, str) or not model:
+            raise _err(path, f"{where}.colour_model", f"expected the path of a colour model file, got {model!r:.80}")
+        model = str(Path(path).parent / model) if not Path(model).is_absolute() else model
+    return Target(name=str(name), hsv_min=lo, hsv_max=hi, radius=float(radius), colour_model=model)
 
 
 def config_from_dict(data: Any, path: str | Path = "<config>") -> Config:
@@ -298,7 +321,10 @@ def load_config(path: str | Path) -> Config:
 
 
 def target_to_dict(t: Target) -> dict[str, Any]:
-    return {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
+    out = {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
+    if t.colour_model is not None:
+        out["colour_model"] = t.colour_model
+    return out
 
 
 def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, Any]:
@@ -320,7 +346,7 @@ def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, 
 
 
 def save_config(config: Config, path: str | Path) -> None:
-    Path(path).write_text(yaml.safe_dump(config_to_dict(config), sort_keys=False, default_flow_style=None))
+    write_text_atomic(path, dump_yaml(config_to_dict(config)))
 
 
 if __name__ == "__main__":  # python -m stereotrack.config: the README's settings table

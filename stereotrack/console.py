@@ -11,7 +11,7 @@ from contextlib import contextmanager
 
 def warn(message: str) -> None:
     """One warning line on stderr."""
-    print(f"warning: {message}", file=sys.stderr, flush=True)
+    print("warning: " + str(message).replace("\r", "\\r").replace("\n", "\\n"), file=sys.stderr, flush=True)
 
 
 def info(message: str) -> None:
@@ -102,3 +102,21 @@ class Progress:
         if self.enabled and self._tty:
             sys.stderr.write("\n")
             sys.stderr.flush()
+
+
+@contextmanager
+def quiet_native_stderr() -> Iterator[None]:
+    """Silence what C libraries print on stderr (file descriptor 2) during the block; our own message says
+    what went wrong instead. Only for short calls in the main thread."""
+    import os
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)

@@ -16,7 +16,6 @@ cameras' frames go through, so a replay sees the pixels the live tracker saw.
 
 from __future__ import annotations
 
-import csv
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -30,9 +29,9 @@ import numpy as np
 import yaml
 
 from .camera import Rig, load_rig, save_rig
-from .console import warn
+from .console import quiet_native_stderr, warn
 from .errors import StereotrackError
-from .files import load_yaml, read_columns
+from .files import MAX_CSV_BYTES, load_yaml, numeric_table, read_columns, read_text
 from .frames import FramePair
 
 CODECS = {"mjpg": ".avi", "ffv1": ".avi"}
@@ -244,26 +243,134 @@ class RecordingWriter:
 # --------------------------------------------------------------------------- reader
 
 
+MAX_TIMESTAMP = 1e10  # seconds: a monotonic clock (or even the epoch) stays far below; beyond it the motion model overflows
+
+
 def _read_frames_csv(path: Path, names: list[str]) -> np.ndarray:
-    if not path.is_file():
-        raise StereotrackError(f"{path}: frames.csv is missing (is this a recording folder?)")
-    with open(path, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader, None)
-        expected = ["frame"] + [f"t_{n}" for n in names]
-        if header != expected:
-            raise StereotrackError(f"{path}: header must be {','.join(expected)}, got {','.join(header or [])}")
-        rows = []
-        for line_no, row in enumerate(reader, start=2):
-            if len(row) != len(expected):
+    """frames.csv -> n_frames x n_cameras timestamps, columns in ``names`` order (matched by the header's t_NAME).
+
+    Only the last line may be malformed (a writer killed mid-line); anywhere
+    else a bad line, a frame number out of sequence, a non-finite timestamp or
+    one that goes backwards is refused with its line number.
+    """
+    text = read_text(path, "frames.csv", missing="frames.csv is missing (is this a recording folder?)", max_bytes=MAX_CSV_BYTES)
+    lines = text.splitlines()
+    expected = ["frame"] + [f"t_{n}" for n in names]
+    header = [h.strip() for h in lines[0].split(",")] if lines else []
+    if not header or header[0] != "frame" or sorted(header[1:]) != sorted(expected[1:]):
+        got = lines[0][:80] if lines else "an empty file"
+        raise StereotrackError(
+            f"{path}: line 1: the header must be {','.join(expected)} (a t_NAME column per camera of meta.yaml), got {got!r}"
+        )
+    columns = [header.index(f"t_{n}") for n in names]
+    for body in (lines[1:], lines[1:-1]):  # every line whole, or all but a last one cut short by a killed writer
+        table = numeric_table(body, len(header))
+        if table is not None and np.array_equal(table[:, 0], np.arange(len(table))) and (np.abs(table) < MAX_TIMESTAMP).all():
+            return _checked_order(path, table[:, columns], names)
+    # Something is wrong: find the first bad line, one by one.
+    rows: list[list[float]] = []
+    for line_no, line in enumerate(lines[1:], start=2):
+        fields = line.split(",")
+        try:
+            if len(fields) != len(header):
+                raise ValueError(f"expected {len(header)} values, got {len(fields)}")
+            frame = float(fields[0])  # '3' or '3.0', as the fast path reads it
+            times = [float(fields[c]) for c in columns]
+        except ValueError as exc:
+            if line_no == len(lines):
                 break  # a partial last line from an interrupted writer
-            try:
-                rows.append([float(v) for v in row[1:]])
-            except ValueError:
-                break
-            if int(row[0]) != len(rows) - 1:
-                raise StereotrackError(f"{path}: line {line_no}: frame numbers must count up from 0")
-    return np.asarray(rows, dtype=float).reshape(-1, len(names))
+            raise StereotrackError(
+                f"{path}: line {line_no}: not a frame row ({str(exc).splitlines()[0][:60]}); "
+                f"expected {','.join(expected)} (only the last line may be cut short)"
+            ) from None
+        if frame != len(rows):
+            raise StereotrackError(f"{path}: line {line_no}: frame numbers must count up from 0 (expected {len(rows)}, got {fields[0]})")
+        if not all(abs(t) < MAX_TIMESTAMP for t in times):  # also false for NaN
+            raise StereotrackError(
+                f"{path}: line {line_no}: timestamps must be finite numbers of seconds (below 1e10), got {','.join(fields[1:])[:60]}"
+            )
+        rows.append(times)
+    return _checked_order(path, np.asarray(rows, dtype=float).reshape(-1, len(names)), names)
+
+
+def _checked_order(path: Path, timestamps: np.ndarray, names: list[str]) -> np.ndarray:
+    back = np.argwhere(np.diff(timestamps, axis=0) < 0)
+    if len(back):
+        row, cam = back[0]
+        raise StereotrackError(
+            f"{path}: line {row + 3}: the timestamp of {names[cam]} goes backwards ({timestamps[row + 1, cam]:.6f} after {timestamps[row, cam]:.6f}); "
+            "timestamps are seconds on one monotonic clock"
+        )
+    return timestamps
+
+
+def _inside(folder: Path, meta_path: Path, field: str, value: Any) -> Path:
+    """A file named in meta.yaml: a relative path that stays inside the recording folder."""
+    if not isinstance(value, str) or not value.strip():
+        raise StereotrackError(f"{meta_path}: field '{field}': expected a file name inside the recording folder, got {value!r:.60}")
+    rel = Path(value)
+    if rel.is_absolute() or ".." in rel.parts:
+        raise StereotrackError(
+            f"{meta_path}: field '{field}': {value!r} is outside the recording folder; name a file inside it (relative to meta.yaml)"
+        )
+    return folder / rel
+
+
+@dataclass(frozen=True)
+class _Meta:
+    names: list[str]
+    videos: list[Path]
+    fps: float
+    image_size: tuple[int, int] | None
+    targets: Path | None
+
+
+def _read_meta(folder: Path) -> tuple[dict[str, Any], _Meta]:
+    """meta.yaml, checked field by field (formats.md section 2); unknown fields are kept and ignored."""
+    path = folder / "meta.yaml"
+    meta = load_yaml(path, "meta.yaml is missing (is this a recording folder?)", what="meta.yaml")
+
+    def fail(field: str, what: str) -> StereotrackError:
+        return StereotrackError(f"{path}: field '{field}': {what}")
+
+    if not isinstance(meta, dict):
+        raise fail("<top level>", "expected a mapping with cameras, videos, fps, image_size")
+    cameras = meta.get("cameras")
+    if not isinstance(cameras, list) or len(cameras) < 2:
+        raise fail("cameras", f"expected a list of two or more camera names, got {cameras!r:.60}")
+    names = []
+    for n in cameras:
+        if isinstance(n, bool) or not isinstance(n, (str, int)) or not str(n).strip() or any(c in str(n) for c in ",\n\r"):
+            raise fail("cameras", f"expected camera names (text without commas), got {n!r:.60}")
+        names.append(str(n))
+    if len(set(names)) != len(names):
+        raise fail("cameras", f"camera names must be unique, got {names}")
+    videos = meta.get("videos")
+    if not isinstance(videos, dict):
+        raise fail("videos", f"expected a mapping from camera name to video file, got {videos!r:.60}")
+    by_name = {str(k): v for k, v in videos.items()}
+    paths = []
+    for n in names:
+        if n not in by_name:
+            raise fail("videos", f"no entry for camera {n!r}")
+        p = _inside(folder, path, f"videos.{n}", by_name[n])
+        if not p.is_file():
+            raise StereotrackError(f"{p}: video for camera {n!r} is " + ("not a regular file" if p.exists() else "missing"))
+        paths.append(p)
+    fps = meta.get("fps", 30.0)
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not 0 < fps <= 10_000:
+        raise fail("fps", f"expected frames per second, a number above 0, got {fps!r:.60}")
+    size = meta.get("image_size")
+    if size is not None and not (
+        isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and 0 < v <= 100_000 for v in size)
+    ):
+        raise fail("image_size", f"expected [width, height] in whole pixels, got {size!r:.60}")
+    targets = None
+    if meta.get("targets") is not None:
+        targets = _inside(folder, path, "targets", meta["targets"])
+        if targets.name in ("meta.yaml", "frames.csv", "calib.yaml", "truth.csv") and targets.parent == folder or targets in paths:
+            raise fail("targets", f"{meta['targets']!r} is one of the recording's own files; name a config file such as config.yaml")
+    return meta, _Meta(names, paths, float(fps), tuple(size) if size else None, targets)
 
 
 def read_tracked_frames(path: Path) -> np.ndarray | None:
@@ -331,10 +438,23 @@ class Recording:
         p = self.folder / "truth.csv"
         return p if p.is_file() else None
 
+    targets_file: Path | None = None  # meta.yaml's 'targets', checked to lie inside the folder
+
     @property
     def targets_path(self) -> Path | None:
-        name = self.meta.get("targets")
-        return (self.folder / name) if name else None
+        return self.targets_file
+
+    @property
+    def own_files(self) -> tuple[Path, ...]:
+        """The files that make up the recording: no command writes over them (the targets file aside)."""
+        files = [
+            self.folder / "meta.yaml",
+            self.folder / "frames.csv",
+            self.folder / "calib.yaml",
+            self.folder / "truth.csv",
+            *self.video_paths,
+        ]
+        return tuple(files)
 
     def require_rig(self) -> Rig:
         if self.rig is None:
@@ -388,41 +508,31 @@ def _skip_then_read(video: _VideoIn, skip: int) -> np.ndarray | None:
 
 
 def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recording:
-    """Open and check a recording folder; ``calib`` overrides its calib.yaml."""
+    """Open and check a recording folder; ``calib`` overrides its calib.yaml (its cameras are matched by name)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise StereotrackError(f"{folder}: recording folder not found")
-    meta = load_yaml(folder / "meta.yaml", "meta.yaml is missing")
-    if not isinstance(meta, dict) or "cameras" not in meta or "videos" not in meta:
-        raise StereotrackError(f"{folder / 'meta.yaml'}: expected 'cameras' and 'videos' fields")
-    names = [str(n) for n in meta["cameras"]]
-    videos = meta["videos"]
-    paths = []
-    for n in names:
-        if n not in videos:
-            raise StereotrackError(f"{folder / 'meta.yaml'}: field 'videos' has no entry for camera {n!r}")
-        p = folder / str(videos[n])
-        if not p.is_file():
-            raise StereotrackError(f"{p}: video for camera {n!r} is missing")
-        paths.append(p)
+    meta, m = _read_meta(folder)
+    names, paths = m.names, m.videos
     timestamps = _read_frames_csv(folder / "frames.csv", names)
 
     # What the videos hold: size and (where the container knows it) length.
     sizes, counts = [], []
     for p in paths:
-        cap = cv2.VideoCapture(str(p))
+        with quiet_native_stderr():  # OpenCV's AVI reader prints its own complaint about a broken file
+            cap = cv2.VideoCapture(str(p))
         if not cap.isOpened():
-            raise StereotrackError(f"{p}: OpenCV cannot open this video")
+            raise StereotrackError(f"{p}: OpenCV cannot open this video (not a video file, or cut short)")
         sizes.append((int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))))
         counts.append(int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
         cap.release()
-    size = tuple(meta.get("image_size") or sizes[0])
+    size = m.image_size or sizes[0]
     for n, s in zip(names, sizes):
         if s != (0, 0) and tuple(s) != tuple(size):
             raise StereotrackError(f"{folder}: video of {n} is {s[0]}x{s[1]} but meta.yaml says {size[0]}x{size[1]}")
     n = len(timestamps)
     known = [c for c in counts if c > 0]
-    if known and min(known) != n:
+    if known and min(known) != n and n > 0:
         warn(
             f"{folder}: frames.csv has {n} rows but the videos hold {min(known)} frames (interrupted recording?); reading {min(n, min(known))} complete pairs"
         )
@@ -430,9 +540,10 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
     rig = None
     calib_path = Path(calib) if calib else folder / "calib.yaml"
     if calib or calib_path.is_file():
-        rig = load_rig(calib_path)
-        if len(rig) != len(names):
-            raise StereotrackError(f"{calib_path}: has {len(rig)} cameras but the recording has {len(names)}")
+        rig = _matched_rig(load_rig(calib_path), calib_path, names, folder)
+        if rig.names != names:  # the calibration's order wins: camera i of the rig sees video i
+            order = [names.index(name) for name in rig.names]
+            names, paths, timestamps = list(rig.names), [paths[i] for i in order], timestamps[:, order]
         for cam in rig.cameras:
             if tuple(cam.image_size) != tuple(size):
                 raise StereotrackError(
@@ -444,17 +555,32 @@ def open_recording(folder: str | Path, calib: str | Path | None = None) -> Recor
         meta=meta,
         camera_names=tuple(names),
         image_size=(int(size[0]), int(size[1])),
-        fps=float(meta.get("fps", 30.0)),
+        fps=m.fps,
         timestamps=timestamps[:n],
         rig=rig,
         video_paths=tuple(paths),
+        targets_file=m.targets,
         tracked_frames=read_tracked_frames(folder / "tracked.csv"),
     )
 
 
+def _matched_rig(rig: Rig, calib_path: Path, names: list[str], folder: Path) -> Rig:
+    """The calibration, once its cameras match the recording's by name (never by position)."""
+    if len(rig) != len(names):
+        raise StereotrackError(f"{calib_path}: has {len(rig)} cameras but the recording has {len(names)}")
+    if sorted(rig.names) != sorted(names):
+        raise StereotrackError(
+            f"{calib_path}: calibrates cameras {', '.join(rig.names)} but the recording {folder} has {', '.join(names)} (meta.yaml): "
+            "the names must match (rename them in one of the files, or calibrate with --names)"
+        )
+    return rig
+
+
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
-    return read_columns(path, ["frame", "object_id", "x", "y", "z"], "ground-truth file")
+    return read_columns(
+        path, ["frame", "object_id", "x", "y", "z"], "ground-truth file", whole=("frame", "object_id"), nonnegative=("frame",)
+    )
 
 
 def __getattr__(name: str):

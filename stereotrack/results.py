@@ -39,6 +39,19 @@ class Object3D:
 
 
 @dataclass(frozen=True, eq=False)
+class Parabola:
+    """A ball in free flight: the parabola fitted to its recent positions under gravity.
+
+    ``p(t) = position + velocity (t - time) + acceleration (t - time)^2 / 2``, world metres and seconds.
+    """
+
+    time: float  # seconds, the time of the latest position fitted
+    position: np.ndarray  # 3, world metres, at ``time``
+    velocity: np.ndarray  # 3, metres per second, at ``time``
+    acceleration: np.ndarray  # 3, m/s^2: gravity
+
+
+@dataclass(frozen=True, eq=False)
 class TrackEstimate:
     """A ball with an identity over time."""
 
@@ -50,6 +63,7 @@ class TrackEstimate:
     state: str  # "tentative", "confirmed" or "coasting"
     n_particles: int = 0
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
+    flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +138,8 @@ class FrameResult:
     objects: tuple[Object3D, ...] = ()
     tracks: tuple[TrackEstimate, ...] = ()  # every live track, whatever its state
     rays: tuple[Rays, ...] = ()
-    masks: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # (target, camera) -> uint8 0/1 mask
+    masks: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # (target, camera) -> uint8 0/1 mask of the HSV range
+    evidence: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # ... what the observation model kept: colour or motion
     timings_ms: dict[str, float] = field(default_factory=dict)  # per stage, this frame
     latency_s: float | None = None  # grab-to-estimate, live sources only
 

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # Each entry is a layer; a module may import from its own layer or the ones above it in this list, never below.
 # Inside a layer, imports may go either way but must not form a cycle.
 LAYERS = [
-    {"errors", "console", "files", "kernels"},  # helpers every module may use
+    {"errors", "console", "files", "kernels", "argtypes"},  # helpers every module may use
     {"camera", "config", "frames", "results", "recording", "evaluate"},  # core types
     {"evidence"},  # tracker stages, in data-flow order
     {"particles"},

@@ -9,6 +9,9 @@ the image over all views (dark: none; add views there).
 
 from __future__ import annotations
 
+import glob
+from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,6 +19,7 @@ import cv2
 import numpy as np
 
 from ..errors import StereotrackError
+from ..files import AtomicOutput, check_output
 from .views import coverage_grid
 
 if TYPE_CHECKING:
@@ -57,22 +61,18 @@ def draw_coverage(image_size: tuple[int, int], corners: list[np.ndarray], backgr
     return heat
 
 
-def save_views(calibration: Calibration, folder: str | Path, inputs: list[Path] = ()) -> list[Path]:
+def save_views(calibration: Calibration, folder: str | Path, inputs: Sequence[str | Path] = ()) -> list[Path]:
     """Write ``<view>_<camera>.png`` for every view a camera saw and ``coverage_<camera>.png``; returns the files.
 
-    Refuses a folder that holds the input images: a user's images are never overwritten.
+    ``inputs``: the image folders or patterns calibrated from. Every file is checked before the first is
+    written (never an input image, a link or a file that is not a PNG) and written atomically.
     """
     folder = Path(folder)
     views, fit = calibration.views, calibration.fit
     if not views.images:
         raise StereotrackError("the views' images were not kept: nothing to draw (calibrate with keep_images=True)")
-    if folder.exists() and not folder.is_dir():
-        raise StereotrackError(f"--save-views {folder}: is a file; give a folder")
-    for source in inputs:
-        if source.is_dir() and source.resolve() == folder.resolve():
-            raise StereotrackError(f"--save-views {folder}: that folder holds input images; give another folder so no input is overwritten")
-    folder.mkdir(parents=True, exist_ok=True)
-    written = []
+    check_views_folder(folder, inputs)
+    drawings: list[tuple[Path, Callable[[], np.ndarray]]] = []
     for v, name in enumerate(views.view_names):
         for c, cam in enumerate(views.camera_names):
             d = fit.detections[v][c]
@@ -80,18 +80,63 @@ def save_views(calibration: Calibration, folder: str | Path, inputs: list[Path] 
                 continue
             e = np.linalg.norm(fit.residuals(v, c), axis=1)
             caption = f"view {name} {cam}: RMS {np.sqrt(np.mean(e**2)):.3f} px, worst corner {e.max():.2f} px, {len(d)} corners"
-            written.append(_write(folder / f"{name}_{cam}.png", draw_view(views.images[v][c], d.corners, fit.reprojected[v][c], caption)))
+            drawings.append(
+                (folder / f"{name}_{cam}.png", partial(draw_view, views.images[v][c], d.corners, fit.reprojected[v][c], caption))
+            )
     for c, cam in enumerate(views.camera_names):
         seen = views.seen_by(c)
         corners = [fit.detections[v][c].corners for v in seen]
         background = views.images[seen[0]][c] if seen else None
-        written.append(_write(folder / f"coverage_{cam}.png", draw_coverage(views.image_sizes[c], corners, background)))
-    return written
+        drawings.append((folder / f"coverage_{cam}.png", partial(draw_coverage, views.image_sizes[c], corners, background)))
+    check_view_files([path for path, _ in drawings], inputs)
+    return [_write(path, draw()) for path, draw in drawings]
+
+
+def view_files(folder: str | Path, view_names: Sequence[str], camera_names: Sequence[str]) -> list[Path]:
+    """Every file save_views may write for these views (a view a camera did not see gets none)."""
+    folder = Path(folder)
+    return [folder / f"{v}_{c}.png" for v in view_names for c in camera_names] + [folder / f"coverage_{c}.png" for c in camera_names]
+
+
+def check_view_files(paths: Sequence[Path], inputs: Sequence[str | Path] = ()) -> None:
+    """Each annotated image may replace only an earlier PNG, never an input image, a link or another file."""
+    input_files = _input_files(inputs)
+    for path in paths:
+        check_output(path, "--save-views", "PNG image", input_files)
+
+
+def check_views_folder(folder: str | Path, inputs: Sequence[str | Path] = ()) -> None:
+    """Refuse a --save-views that is a file, or a folder that holds input images (before any work is done)."""
+    folder = Path(folder)
+    if folder.is_symlink():
+        raise StereotrackError(f"--save-views {folder}: is a symbolic link; give the real path (outputs are never written through links)")
+    if folder.exists() and not folder.is_dir():
+        raise StereotrackError(f"--save-views {folder}: is a file; give a folder for the annotated images")
+    for source in inputs:
+        if Path(source).is_dir() and Path(source).resolve() == folder.resolve():
+            raise StereotrackError(f"--save-views {folder}: that folder holds input images; give another folder so no input is overwritten")
+
+
+def _input_files(inputs: Sequence[str | Path]) -> list[Path]:
+    files: list[Path] = []
+    for source in inputs:
+        p = Path(source)
+        files += list(p.iterdir()) if p.is_dir() else [Path(f) for f in glob.glob(str(source))]
+    return files
 
 
 def _write(path: Path, image: np.ndarray) -> Path:
-    if not cv2.imwrite(str(path), image):
-        raise StereotrackError(f"{path}: could not write the image")
+    ok, png = cv2.imencode(".png", image)
+    if not ok:
+        raise StereotrackError(f"{path}: could not encode the image")
+    out = AtomicOutput(path, "--save-views")
+    f = out.open("wb")
+    try:
+        f.write(png.tobytes())
+    except BaseException:
+        out.abort()
+        raise
+    out.commit()
     return path
 
 

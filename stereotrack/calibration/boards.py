@@ -92,9 +92,10 @@ def board_from_dict(data: Any, path: Path | str = "<board>") -> Board:
     if kind not in BOARD_TYPES:
         raise fail("type", f"expected one of {', '.join(BOARD_TYPES)}, got {data.get('type')!r}")
     squares = data.get("squares")
-    if not (isinstance(squares, (list, tuple)) and len(squares) == 2 and all(isinstance(v, int) and v >= 3 for v in squares)):
+    if not (isinstance(squares, (list, tuple)) and len(squares) == 2 and all(isinstance(v, int) and 3 <= v <= 100 for v in squares)):
         raise fail(
-            "squares", f"expected [squares across, squares down], whole numbers >= 3 (count squares, not inner corners), got {squares!r}"
+            "squares",
+            f"expected [squares across, squares down], whole numbers from 3 to 100 (count squares, not inner corners), got {squares!r}",
         )
     square = data.get("square")
     if not isinstance(square, (int, float)) or not 0.001 <= square <= 1.0:
@@ -336,6 +337,9 @@ def printable(board: Board, dpi: float = 300.0) -> PrintableBoard:
     pps = int(round(board.square * px_per_m))
     if pps < 10:
         raise StereotrackError(f"at {dpi:g} dpi one square is only {pps} px: raise --dpi or the square size")
+    w_px, h_px = board.squares[0] * pps, board.squares[1] * pps
+    if w_px * h_px > 150e6:  # a printable page is a few dozen megapixels; beyond this the image itself runs out of memory
+        raise StereotrackError(f"at {dpi:g} dpi the board is {w_px} x {h_px} px: lower --dpi or use fewer or smaller squares")
     squares = board_image(board, pps)
     h, w = squares.shape
     margin = max(pps // 2, int(round(0.005 * px_per_m)))  # a white quiet zone (half a square, 5 mm at least) helps detection

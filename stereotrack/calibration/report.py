@@ -7,9 +7,9 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
 from ..camera import Rig
+from ..files import dump_yaml, write_text_atomic
 from .boards import Board, board_to_dict
 from .bundle import CX, CY, FX, BundleResult
 from .measures import CalibrationOptions, Intrinsics, ViewFit, _angle_deg, _common, epipolar_errors
@@ -203,8 +203,7 @@ def _plus_minus(sd: float) -> str:
 
 
 def save_report(report: dict[str, Any], path: str | Path) -> None:
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(yaml.safe_dump(report, sort_keys=False, default_flow_style=None, width=120))
+    write_text_atomic(path, dump_yaml(report, width=120))  # view names such as '08' stay strings for any YAML reader
 
 
 def report_path(calib_path: str | Path) -> Path:

@@ -20,7 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..console import Progress, warn
+from ..console import Progress, quiet_native_stderr, warn
 from ..errors import StereotrackError
 from .boards import MIN_CORNERS, Board, BoardDetector, Detection, flipped, to_grey
 
@@ -145,7 +145,13 @@ def match_image_files(sources: Sequence[str]) -> tuple[list[str], list[list[Path
 
 
 def _read_grey(path: Path) -> np.ndarray:
-    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if not path.is_file():
+        raise StereotrackError(f"{path}: not a regular file; expected an image")
+    try:
+        with quiet_native_stderr():  # libjpeg's own "Premature end of JPEG file" and the like
+            img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    except cv2.error as exc:  # e.g. a header that claims more pixels than OpenCV's limit
+        raise StereotrackError(f"{path}: OpenCV cannot read this image ({str(exc).strip().splitlines()[-1][:120]})") from None
     if img is None:
         raise StereotrackError(f"{path}: OpenCV cannot read this image")
     return img

@@ -22,6 +22,7 @@ Device specs on the command line (``--cam0 SPEC``):
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 import time
@@ -407,8 +408,13 @@ def _parse_sim(spec: str, slot: int) -> dict[str, Any]:
             kwargs[name] = cast(value)
         except ValueError:
             raise StereotrackError(f"{spec!r}: option {key} needs a {cast.__name__}, got {value!r}") from None
-    if not 0.0 <= kwargs.get("drop", 0.0) < 1.0:
-        raise StereotrackError(f"{spec!r}: drop is a probability in 0..1")
+    limits = {"view": (0, 63), "jitter": (0, 1), "drop": (0, 0.999), "stop_after": (0, 1e6), "seed": (0, 2**32 - 1), "loop": (0.001, 10)}
+    option = {name: key for key, (name, _) in casts.items()}
+    for name, (lo, hi) in limits.items():
+        value = kwargs.get(name)
+        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+            what = "a probability" if name == "drop" else "a number"
+            raise StereotrackError(f"{spec!r}: option {option[name]} must be {what} from {lo:g} to {hi:g}, got {value!r}")
     return kwargs
 
 

@@ -8,8 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..console import warn
 from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import Recording, open_recording
+
+MAX_WAIT = 2.0  # seconds: the longest pause between two frames a paced replay waits out
 
 
 def paced(
@@ -34,6 +37,10 @@ def paced(
             start_wall, start_rec = clock(), t
         due = start_wall + (t - start_rec)
         now = clock()
+        if due - now > MAX_WAIT:  # a pause in the recording (or a wrong timestamp) is replayed as MAX_WAIT, not waited out
+            warn(f"the recording pauses for {due - now:.0f} s before frame {pair.index}; replaying the pause as {MAX_WAIT:g} s")
+            start_wall -= due - now - MAX_WAIT
+            due = now + MAX_WAIT
         if due > now:
             sleep(due - now)
         elif skip_late and now - due > period > 0:

@@ -84,6 +84,20 @@ def uninstall() -> None:
     _State.installed = False
 
 
+def leave_to_parent() -> None:
+    """In a command's worker process: Ctrl-C (sent to the whole process group) is the parent's to handle, so
+    ignore it, and let SIGTERM end the worker at once; StopOnSignals blocks in the worker then leave both alone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _State.starting, _State.pending, _State.previous = False, None, {}
+    _State.installed = True  # install() (and so StopOnSignals) sees them handled and changes nothing
+
+
+def stop_requested() -> bool:
+    """Whether a stop signal arrived inside any active StopOnSignals block (the run is ending on it)."""
+    return any(scope.requested for scope in _State.scopes)
+
+
 class StopOnSignals:
     """While active, the first SIGINT/SIGTERM asks the loop to stop instead of interrupting it.
 

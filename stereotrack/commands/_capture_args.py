@@ -20,12 +20,14 @@ camera devices (--cam0 SPEC, --cam1 SPEC, ... up to --cam3):
                         default the slot), jitter=SECONDS (timestamp jitter s.d.,
                         0.002), drop=P (lost-frame probability, 0.01),
                         stop=SECONDS (hang after that long, like an unplugged
-                        webcam), seed=N, loop=SECONDS (render that long up
+                        webcam), seed=N, loop=SECONDS (at most 10; render that long up
                         front and loop it: a camera that costs no CPU)
 """
 
 
 def add_camera_arguments(parser: argparse.ArgumentParser, required: bool = True) -> None:
+    from ..argtypes import number
+
     g = parser.add_argument_group("cameras")
     for i in range(MAX_CAMERAS):
         g.add_argument(
@@ -34,21 +36,32 @@ def add_camera_arguments(parser: argparse.ArgumentParser, required: bool = True)
             required=required and i < 2,
             help=f"device for camera cam{i}" + (" (required)" if required and i < 2 else ""),
         )
-    g.add_argument("--width", type=int, default=640, help="requested frame width (default 640)")
-    g.add_argument("--height", type=int, default=480, help="requested frame height (default 480)")
-    g.add_argument("--fps", type=float, default=30.0, help="requested frame rate (default 30)")
+    g.add_argument("--width", type=number(16, 16384, integer=True), default=640, help="requested frame width (default 640)")
+    g.add_argument("--height", type=number(16, 16384, integer=True), default=480, help="requested frame height (default 480)")
+    g.add_argument("--fps", type=number(above=0, hi=1000), default=30.0, help="requested frame rate (default 30)")
     g.add_argument(
         "--fourcc", default="MJPG", help="requested pixel format (default MJPG: two USB webcams can share a bus; 'none' = device default)"
     )
     g.add_argument(
-        "--exposure", type=float, default=None, help="manual exposure in device units (V4L2: 100 µs); default: leave the device's setting"
+        "--exposure",
+        type=number(0, 1e9),
+        default=None,
+        help="manual exposure in device units (V4L2: 100 µs); default: leave the device's setting",
     )
-    g.add_argument("--gain", type=float, default=None, help="manual gain in device units; default: leave the device's setting")
+    g.add_argument("--gain", type=number(0, 1e9), default=None, help="manual gain in device units; default: leave the device's setting")
     g.add_argument(
-        "--white-balance", type=float, default=None, metavar="KELVIN", help="manual white balance; default: leave the device's setting"
+        "--white-balance",
+        type=number(1000, 20000),
+        default=None,
+        metavar="KELVIN",
+        help="manual white balance; default: leave the device's setting",
     )
     g.add_argument(
-        "--stall-timeout", type=float, default=2.0, metavar="S", help="give up when a camera delivers nothing for S seconds (default 2)"
+        "--stall-timeout",
+        type=number(above=0, hi=3600),
+        default=2.0,
+        metavar="S",
+        help="give up when a camera delivers nothing for S seconds (default 2)",
     )
 
 

@@ -21,7 +21,11 @@ HELP = "benchmark the tracker step and its stages against the HSV+threshold floo
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frames", type=int, default=60, help="frames per case (default 60; the first 10 are warm-up)")
+    from ..argtypes import number
+
+    p.add_argument(
+        "--frames", type=number(11, 100_000, integer=True), default=60, help="frames per case (default 60; the first 10 are warm-up)"
+    )
     p.add_argument("--quick", action="store_true", help="only 640x480, N=2000, alpha=0.2")
     p.add_argument("--em", choices=["numpy", "sklearn"], default="numpy", help="EM implementation to time")
 

@@ -27,46 +27,63 @@ HELP = "write a printable calibration board (PNG at true size) and check that it
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("board", metavar="BOARD_YAML", help="board description (e.g. calib/board.yaml)")
     parser.add_argument("--out", default="board.png", metavar="PNG", help="image to write (default board.png)")
-    parser.add_argument("--dpi", type=float, default=300.0, help="printer resolution in dots per inch (default 300)")
+    from ..argtypes import number
+
+    parser.add_argument("--dpi", type=number(50, 2400), default=300.0, help="printer resolution in dots per inch (default 300)")
     parser.add_argument(
         "--paper", choices=["A4", "letter", "A3"], help="refuse a board that does not fit on this paper (default: say which fits)"
     )
 
 
 def run(args: argparse.Namespace) -> int:
-    import cv2
-
-    from ..calibration.boards import BoardDetector, load_board, printable, write_png_with_dpi
+    from ..calibration.boards import load_board, printable, write_png_with_dpi
     from ..errors import StereotrackError
+    from ..files import AtomicOutput, check_output
 
-    if not 50 <= args.dpi <= 2400:
-        raise StereotrackError(f"--dpi must be between 50 and 2400, got {args.dpi:g}")
     if not str(args.out).lower().endswith(".png"):
         raise StereotrackError(f"--out must be a .png file (it stores the dpi for printing), got {args.out}")
+    check_output(args.out, "--out", "PNG image", [args.board])
     board = load_board(args.board)
     page = printable(board, args.dpi)
     paper_line = _check_paper(board, page, args.paper, args.dpi)
-    write_png_with_dpi(args.out, page.image, args.dpi)
-
-    # Self-check: read the file back and find every corner, at a camera-like resolution.
-    img = cv2.imread(str(args.out), cv2.IMREAD_GRAYSCALE)
-    scale = min(1.0, 1600 / max(img.shape))
-    small = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) if scale < 1 else img
-    det = BoardDetector(board).detect(small)
-    found = 0 if det is None else len(det)
-    h_mm, w_mm = (25.4 * n / args.dpi for n in img.shape)
-    print(
-        f"wrote {args.out}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {args.dpi:g} dpi; "
-        f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm"
-    )
+    # Written under a temporary name; it replaces --out only once the self-check found every corner.
+    out = AtomicOutput(args.out, "--out")
+    out.open("wb").close()
+    try:
+        write_png_with_dpi(out.temp, page.image, args.dpi)
+        found = _self_check(out.temp, board, args.dpi, page, args.out)
+    except BaseException:
+        out.abort()
+        raise
     if found != board.n_corners:
+        out.abort()
         raise StereotrackError(
-            f"self-check failed: only {found} of {board.n_corners} corners were found in {args.out}; use a larger --dpi or larger squares"
+            f"self-check failed: only {found} of {board.n_corners} corners were found in the image; use a larger --dpi or larger squares"
         )
+    out.commit()
     print(paper_line)
     print(f"self-check: all {found} corners found in the written image")
     print("print at 100% scale (no 'fit to page') and check a few squares with a ruler")
     return 0
+
+
+def _self_check(path, board, dpi: float, page, shown) -> int:
+    """Read the file back and count the corners found, at a camera-like resolution."""
+    import cv2
+
+    from ..calibration.boards import BoardDetector
+
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    scale = min(1.0, 1600 / max(img.shape))
+    small = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) if scale < 1 else img
+    det = BoardDetector(board).detect(small)
+    found = 0 if det is None else len(det)
+    h_mm, w_mm = (25.4 * n / dpi for n in img.shape)
+    print(
+        f"wrote {shown}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {dpi:g} dpi; "
+        f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm"
+    )
+    return found
 
 
 def _check_paper(board, page, paper: str | None, dpi: float) -> str:

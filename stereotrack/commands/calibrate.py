@@ -42,6 +42,8 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--board", default="calib/board.yaml", metavar="YAML", help="board description (default calib/board.yaml)")
     parser.add_argument(
         "--out", required=True, metavar="YAML", help="calibration file to write (e.g. calib/desk.yaml); the report goes beside it"
@@ -50,11 +52,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src.add_argument("--images", nargs="+", metavar="DIR", help="one image folder or quoted glob pattern per camera")
     src.add_argument("--recording", metavar="DIR", help="a recording folder")
     parser.add_argument("--names", nargs="+", metavar="NAME", help="camera names (default cam0 cam1 ..., or the recording's)")
-    parser.add_argument("--max-views", type=int, default=30, help="recording / live: stop after this many views (default 30)")
     parser.add_argument(
-        "--every", type=int, default=None, metavar="N", help="recording: look at every N-th frame pair (default: about 300 pairs in all)"
+        "--max-views", type=number(5, 10_000, integer=True), default=30, help="recording / live: stop after this many views (default 30)"
     )
-    parser.add_argument("--seconds", type=float, default=None, help="live: stop after this many seconds")
+    parser.add_argument(
+        "--every",
+        type=number(1, 1_000_000, integer=True),
+        default=None,
+        metavar="N",
+        help="recording: look at every N-th frame pair (default: about 300 pairs in all)",
+    )
+    parser.add_argument("--seconds", type=number(above=0, hi=86_400), default=None, help="live: stop after this many seconds")
     m = parser.add_argument_group("lens model and solving")
     m.add_argument("--fix-aspect", action="store_true", help="square pixels: fx = fy")
     m.add_argument("--zero-tangent", action="store_true", help="no tangential distortion")
@@ -65,13 +73,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )  # the joint refinement is the default now; old command lines still run
     m.add_argument(
         "--subpix",
-        type=int,
+        type=number(1, 50, integer=True),
         default=None,
         metavar="PX",
         help="chessboard corner refinement half-window in pixels (default: a quarter of the corner spacing)",
     )
     parser.add_argument(
-        "--drop-worst", type=int, default=0, metavar="N", help="drop the N worst views (named in the report) and calibrate again"
+        "--drop-worst",
+        type=number(0, 1000, integer=True),
+        default=0,
+        metavar="N",
+        help="drop the N worst views (named in the report) and calibrate again",
     )
     parser.add_argument(
         "--world-view",
@@ -108,6 +120,10 @@ def run(args: argparse.Namespace) -> int:
     viewer = _open_viewer(args, board, _camera_names(args)) if _live(args) and _wants_viewer(args) else None
     try:
         views = _collect_views(args, board, progress, keep_images, viewer)
+        if args.save_views is not None:  # now that the views' names are known, before the fit and any file is written
+            from ..calibration.annotate import check_view_files, view_files
+
+            check_view_files(view_files(args.save_views, views.view_names, views.camera_names), args.images or [])
         options = CalibrationOptions(
             fix_aspect=args.fix_aspect,
             zero_tangent=args.zero_tangent,
@@ -125,44 +141,48 @@ def run(args: argparse.Namespace) -> int:
         if args.save_views is not None:
             from ..calibration.annotate import save_views
 
-            written = save_views(result, args.save_views, [Path(s) for s in args.images or []])
+            written = save_views(result, args.save_views, args.images or [])
             print(f"wrote {len(written)} annotated images to {args.save_views}")
         if _wants_viewer(args):  # image folders and recordings: the viewer opens once the fit succeeded
             viewer = viewer or _open_viewer(args, board, views.camera_names)
             viewer.log_fit(result)
-            if viewer.rrd_path is not None:
-                print(f"wrote {viewer.rrd_path}: open it with 'rerun {viewer.rrd_path}'")
     finally:
         if viewer is not None:
-            viewer.close()
+            viewer.close()  # the .rrd takes its name here, and only when the run did not fail
+    if viewer is not None and viewer.rrd_path is not None:
+        print(f"wrote {viewer.rrd_path}: open it with 'rerun {viewer.rrd_path}'")
     return 0
 
 
 def _check_arguments(args: argparse.Namespace) -> None:
-    """Problems with the command line itself, before any work (each one line)."""
+    """Problems with the command line and its outputs, before any work (each one line)."""
+    from ..calibration.report import report_path
     from ..errors import StereotrackError
+    from ..files import check_output
 
     chosen = sum([bool(args.images), bool(args.recording), _live(args)])
     if chosen != 1:
         raise StereotrackError("give exactly one source of views: --images DIR0 DIR1, --recording DIR, or --cam0 SPEC --cam1 SPEC")
-    if args.max_views < 5:
-        raise StereotrackError(f"--max-views must be at least 5, got {args.max_views}")
-    if args.drop_worst < 0:
-        raise StereotrackError(f"--drop-worst must be 0 or more, got {args.drop_worst}")
     if not str(args.out).endswith((".yaml", ".yml")):
         raise StereotrackError(f"--out must be a .yaml file, got {args.out}")
+    if args.names and (len(set(args.names)) != len(args.names) or any(not n.strip() or "," in n for n in args.names)):
+        raise StereotrackError(f"--names {' '.join(args.names)}: expected distinct camera names without commas")
     if args.rrd is not None and not str(args.rrd).endswith(".rrd"):
         raise StereotrackError(f"--rrd must be a .rrd file, got {args.rrd}")
+    # Every output is checked before any work: a calibration that takes minutes never ends in a refused file.
+    rpath = report_path(args.out)
+    check_output(args.out, "--out", "calibration file", [args.board])
+    check_output(rpath, "--out (its report)", "calibration report", [args.board])
+    if args.rrd is not None:
+        check_output(args.rrd, "--rrd", "rerun recording", [args.board, args.out, rpath])
     if args.save_views is not None:
-        folder = Path(args.save_views)
-        if folder.exists() and not folder.is_dir():
-            raise StereotrackError(f"--save-views {folder}: is a file; give a folder for the annotated images")
-        if any(Path(s).is_dir() and Path(s).resolve() == folder.resolve() for s in args.images or []):
-            raise StereotrackError(f"--save-views {folder}: that folder holds input images; give another folder so no input is overwritten")
-    if args.connect:
-        from ..sinks.viewer.process import normalise_connect_url
+        from ..calibration.annotate import check_views_folder
 
-        normalise_connect_url(args.connect)
+        check_views_folder(args.save_views, args.images or [])
+    if args.connect:  # a viewer that is not there is found now, not after the fit
+        from ..sinks.viewer.process import check_viewer_listens, normalise_connect_url
+
+        check_viewer_listens(normalise_connect_url(args.connect))
 
 
 def _live(args: argparse.Namespace) -> bool:

@@ -26,8 +26,14 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--probe-max", type=int, default=9, metavar="N", help="probe device indices 0..N (default 9)")
-    parser.add_argument("--seconds", type=float, default=3.0, help="with --cam0/--cam1: how long to check sync (default 3)")
+    from ..argtypes import number
+
+    parser.add_argument(
+        "--probe-max", type=number(0, 63, integer=True), default=9, metavar="N", help="probe device indices 0..N (default 9)"
+    )
+    parser.add_argument(
+        "--seconds", type=number(above=0, hi=3600), default=3.0, help="with --cam0/--cam1: how long to check sync (default 3)"
+    )
     add_camera_arguments(parser, required=False)
 
 
@@ -116,19 +122,16 @@ def check_sync(specs: list[str], settings, seconds: float, stall_timeout: float)
 
 def run(args: argparse.Namespace) -> int:
     if any(getattr(args, f"cam{i}") for i in range(4)):
-        from ..errors import StereotrackError
-
-        if args.seconds <= 0:
-            raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
         return check_sync(camera_specs(args), capture_settings(args), args.seconds, args.stall_timeout)
 
     devices = list_devices(args.probe_max)
     if not devices:
-        print(
-            f"no video devices found (probed indices 0..{args.probe_max}). Check that the webcams are plugged in, "
-            "that `v4l2-ctl --list-devices` shows them, and that you may read /dev/video* (the 'video' group)."
+        from ..errors import StereotrackError
+
+        raise StereotrackError(
+            f"no video devices found (probed indices 0..{args.probe_max}): check that the webcams are plugged in, "
+            "that `v4l2-ctl --list-devices` shows them, and that you may read /dev/video* (the 'video' group)"
         )
-        return 1
     for d in devices:
         name = f"  {d['name']}" if d["name"] else ""
         print(f"{d['index']}: {d['width']}x{d['height']} {d['fps']:.0f} fps {d['fourcc'] or '?'} ({d['backend']}){name}")

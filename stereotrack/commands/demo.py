@@ -18,16 +18,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/demo/tracks.csv", help="tracks CSV (default out/demo/tracks.csv)")
     p.add_argument("--method", choices=["particles", "baseline"], default="particles", help=argparse.SUPPRESS)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments
 
     add_viz_arguments(p)
+    add_network_arguments(p)
 
 
 def run(args) -> int:
     from ..console import info
+    from ..files import check_output
     from ..simulation.write import ensure_demo_recording
     from .track import track_recording
 
+    check_output(args.out, "--out", "tracks CSV")  # before the first run spends a minute rendering the recording
+    if args.rrd is not None:
+        check_output(args.rrd, "--rrd", "rerun recording", [args.out])
     folder = ensure_demo_recording(Path.cwd())
     info(f"demo recording: {folder}")
     args.recording = str(folder)

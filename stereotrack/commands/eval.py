@@ -19,7 +19,9 @@ HELP = "score tracks.csv against truth.csv (CLEAR MOT, 3D error)"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("tracks", help="tracks CSV written by 'stereotrack track'")
     p.add_argument("truth", help="ground truth CSV (frame,object_id,x,y,z)")
-    p.add_argument("--gate", type=float, default=0.1, help="match distance in metres (default 0.1)")
+    from ..argtypes import number
+
+    p.add_argument("--gate", type=number(above=0, hi=1000), default=0.1, help="match distance in metres (default 0.1)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
 
 

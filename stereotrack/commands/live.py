@@ -30,6 +30,8 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--calib", metavar="FILE", help="calibration YAML of the cameras (required unless every camera is sim:)")
     parser.add_argument("--config", metavar="FILE", help="target/tracker config YAML (required unless every camera is sim:)")
     parser.add_argument("--out", metavar="CSV", help="write the tracks to this CSV (formats.md section 3)")
@@ -37,12 +39,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--codec", choices=("mjpg", "ffv1"), default="mjpg", help="video codec for --record (see `stereotrack record --help`)"
     )
-    parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--seconds", type=number(above=0), default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument("--quiet", action="store_true", help="no status line")
     add_camera_arguments(parser)
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(parser)
+    add_network_arguments(parser)
 
 
 def simulated_scene(specs: list[str], settings):
@@ -59,10 +63,14 @@ def simulated_scene(specs: list[str], settings):
         raise StereotrackError(
             "sim:dots is a test pattern without a calibration; use a scene preset (e.g. sim:pendulum4) or give --calib and --config"
         )
+    from dataclasses import replace
+
     from ..simulation.presets import make_preset
+    from ..simulation.spec import WORLD_UP
 
     spec = make_preset(preset, width=settings.width or 640, height=settings.height or 480, fps=settings.fps or 30.0)
-    return spec.rig.build(), spec.config()
+    config = spec.config()  # with the scene's up axis, as `track` takes it from a rendered recording: gravity for flights
+    return spec.rig.build(), replace(config, tracks=replace(config.tracks, up=WORLD_UP))
 
 
 class LatencySink:
@@ -129,11 +137,11 @@ def run(args: argparse.Namespace) -> int:
     from ..config import load_config
     from ..console import info
     from ..errors import StereotrackError
+    from ..sinks.network import check_network_flags
 
+    check_network_flags(args)
     specs = camera_specs(args)
     settings = capture_settings(args)
-    if args.seconds is not None and args.seconds <= 0:
-        raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
     scene = simulated_scene(specs, settings) if not (args.calib and args.config) else None
     if args.calib:
         rig = load_rig(args.calib)
@@ -193,13 +201,16 @@ def _live_session(args, specs, settings, rig, config, stopper):
     from ..sinks.recorder import RecordingSink, TrackedFramesSink
 
     names = [c.name for c in rig.cameras]
+    from ..files import check_output
+
+    out_csv = check_output(args.out, "--out", "tracks CSV", [args.calib, args.config]) if args.out else None  # before anything starts
     recorder = None
     if args.record:
         from ..config import config_to_dict
 
         out = Path(args.record)
-        if out.exists() and any(out.iterdir()):
-            raise StereotrackError(f"{out}: folder exists and is not empty (choose another --record folder)")
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            raise StereotrackError(f"--record {out}: exists and is not an empty folder (choose another --record folder)")
         # every pair the cameras delivered, with the rig and targets in force; tracked.csv says which were tracked
         recorder = RecordingSink(
             out,
@@ -213,7 +224,10 @@ def _live_session(args, specs, settings, rig, config, stopper):
         )
     tracker = make_tracker("particles", rig, config, keep_rays=getattr(args, "viz_rays", False))
     extra = [TrackedFramesSink(recorder)] if recorder is not None else []
-    sinks = open_sinks(args, rig, config, tracks_csv=Path(args.out) if args.out else None, live=True, extra=extra)
+    # without --seconds only Ctrl-C ends the run: a served viewer then stops with it (no second Ctrl-C)
+    sinks = open_sinks(
+        args, rig, config, tracks_csv=out_csv, live=True, extra=extra, protect=[args.calib, args.config], hold=args.seconds is not None
+    )
     viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
     # queue_size=1: the tracker always gets the newest pair; latency cannot build up
     source = CameraPairSource(

@@ -25,11 +25,13 @@ __doc__ = __doc__ + "\n" + DEVICE_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("--out", required=True, metavar="DIR", help="recording folder to create (recordings/NAME)")
     parser.add_argument(
         "--calib", metavar="FILE", help="calibration YAML to store with the recording (its cameras and image size must match)"
     )
-    parser.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--seconds", type=number(above=0), default=None, help="stop after this many seconds (default: until Ctrl-C)")
     parser.add_argument(
         "--codec",
         choices=("mjpg", "ffv1"),
@@ -37,28 +39,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="mjpg (default): the JPEGs an MJPG camera sends, stored as they are (other frames encoded at quality 95); "
         "ffv1: lossless, about 20x larger and too slow for 720p",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier recording at --out (never a folder of other files)")
     add_camera_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from ..camera import load_rig
     from ..capture.cameras import CameraPairSource
     from ..capture.signals import StopOnSignals
     from ..console import Progress, info
     from ..errors import StereotrackError
+    from ..files import check_output_folder
     from ..recording import JPEG_QUALITY
     from ..sinks.recorder import RecordingSink
 
     specs = camera_specs(args)
     settings = capture_settings(args)
-    out = Path(args.out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
-        raise StereotrackError(f"{out}: folder exists and is not empty (choose another --out or add --overwrite)")
-    if args.seconds is not None and args.seconds <= 0:
-        raise StereotrackError(f"--seconds must be positive, got {args.seconds}")
+    out = check_output_folder(args.out, "--out", args.overwrite)
     rig = load_rig(args.calib) if args.calib else None
     simulated = all(s.startswith("sim:") for s in specs)
     targets = None
@@ -111,13 +108,13 @@ def run(args: argparse.Namespace) -> int:
         if error is None:
             sink.check()
     stats = source.stats
-    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "stopped" if error else "done"
-    info(f"{how}: {sink.count} pairs in {out} ({stats.line()})")
-    if error is not None:
+    if error is not None:  # one line: the error says what was kept
         kept = f"{sink.count} pairs kept in {out}" if sink.count else "nothing was recorded"
         raise StereotrackError(f"{error}; recording stopped, {kept}")
-    if sink.count == 0 and not stopper.signal_name:
+    if sink.count == 0 and not stopper.signal_name:  # before the status line: an error is one line
         raise StereotrackError(
             "no frame pair was recorded (cameras out of sync or not delivering? check with `stereotrack cameras --check`)"
         )
+    how = f"stopped by {stopper.signal_name}" if stopper.signal_name else "done"
+    info(f"{how}: {sink.count} pairs in {out} ({stats.line()})")
     return 0

@@ -19,30 +19,37 @@ HELP = "render a synthetic scene (preset or scene .yaml) with ground truth"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     parser.add_argument("scene", nargs="?", metavar="SCENE", help="preset name or scene .yaml file")
     parser.add_argument("--out", metavar="DIR", help="recording folder to write")
     parser.add_argument("--list", action="store_true", help="list the presets and exit")
-    parser.add_argument("--frames", type=int, metavar="N", help="number of frame pairs (default: the scene's)")
-    parser.add_argument("--fps", type=float, metavar="F", help="frame rate (default 30)")
-    parser.add_argument("--seed", type=int, metavar="S", help="random seed (background, noise)")
-    parser.add_argument("--width", type=int, metavar="W", help="image width in pixels (default 640)")
-    parser.add_argument("--height", type=int, metavar="H", help="image height in pixels (default 480)")
-    parser.add_argument("--cameras", type=int, metavar="C", help="number of cameras, >= 2 (default 2)")
-    parser.add_argument("--baseline", type=float, metavar="B", help="distance between neighbouring cameras, metres (default 0.3)")
+    parser.add_argument("--frames", type=number(1, 100_000, integer=True), metavar="N", help="number of frame pairs (default: the scene's)")
+    parser.add_argument("--fps", type=number(above=0, hi=1000), metavar="F", help="frame rate (default 30)")
+    parser.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), metavar="S", help="random seed (background, noise)")
+    parser.add_argument("--width", type=number(32, 8192, integer=True), metavar="W", help="image width in pixels (default 640)")
+    parser.add_argument("--height", type=number(32, 8192, integer=True), metavar="H", help="image height in pixels (default 480)")
+    parser.add_argument("--cameras", type=number(2, 8, integer=True), metavar="C", help="number of cameras, >= 2 (default 2)")
+    parser.add_argument(
+        "--baseline", type=number(above=0, hi=10), metavar="B", help="distance between neighbouring cameras, metres (default 0.3)"
+    )
     parser.add_argument(
         "--codec",
         choices=["mjpg", "ffv1"],
         default="mjpg",
         help="video codec: mjpg (default: JPEG quality 95, below the sensor noise, 7x smaller than ffv1) or ffv1 (lossless)",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace the files of an existing --out folder")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier recording at --out (never a folder of other files)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
+    import shutil
     from pathlib import Path
 
     from ..errors import StereotrackError
+    from ..files import check_output_folder, load_yaml, replace_folder
     from ..simulation.presets import PRESETS, load_scene_yaml, make_preset, scene_from_dict
     from ..simulation.write import render_scene
 
@@ -68,17 +75,11 @@ def run(args: argparse.Namespace) -> int:
         )
         if value is not None
     }
-    for key in ("n_frames", "width", "height"):
-        if key in overrides and overrides[key] < 1:
-            raise StereotrackError(f"--{'frames' if key == 'n_frames' else key} must be at least 1, got {overrides[key]}")
-    if "fps" in overrides and overrides["fps"] <= 0:
-        raise StereotrackError(f"--fps must be positive, got {overrides['fps']}")
+    out = check_output_folder(args.out, "--out", args.overwrite)
     if args.scene.endswith((".yaml", ".yml")) or Path(args.scene).is_file():
-        import yaml
-
         base = load_scene_yaml(args.scene)  # validates the file
         if overrides:
-            data = yaml.safe_load(Path(args.scene).read_text())
+            data = load_yaml(args.scene)
             rig_keys = {"width", "height", "cameras", "baseline"}
             data.setdefault("rig", {})
             data["rig"] = dict(data["rig"] or {}, **{k: v for k, v in overrides.items() if k in rig_keys})
@@ -87,6 +88,13 @@ def run(args: argparse.Namespace) -> int:
         spec = base
     else:
         spec = make_preset(args.scene, **overrides)
-    out = render_scene(spec, args.out, progress=not args.no_progress, codec=args.codec, overwrite=args.overwrite)
+    # Rendered under a temporary name and put in place when complete: a failed render leaves --out as it was.
+    partial = out.with_name(f".{out.name}.{os.getpid()}.partial")
+    try:
+        render_scene(spec, partial, progress=not args.no_progress, codec=args.codec)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+    replace_folder(partial, out)
     print(f"wrote {spec.n_frames} frame pairs of '{spec.name}' ({len(spec.balls)} balls, {spec.rig.cameras} cameras) to {out}")
     return 0

@@ -19,6 +19,8 @@ HELP = "track a recording: write tracks.csv (and a rerun .rrd)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..argtypes import number
+
     p.add_argument("recording", help="recording folder (meta.yaml, frames.csv, one video per camera)")
     p.add_argument("--config", help="target/tracker config YAML (default: the recording's own targets file)")
     p.add_argument("--calib", help="calibration YAML (default: the recording's calib.yaml)")
@@ -29,8 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="particles",
         help="the particle tracker (default) or the classic OpenCV pipeline",
     )
-    p.add_argument("--start", type=int, default=0, help="first frame (default 0)")
-    p.add_argument("--frames", type=int, help="track at most this many frames")
+    p.add_argument("--start", type=number(0, integer=True), default=0, help="first frame (default 0)")
+    p.add_argument("--frames", type=number(1, integer=True), help="track at most this many frames")
     p.add_argument(
         "--realtime",
         action="store_true",
@@ -42,9 +44,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a `live --record` recording: track every recorded frame, not only those the live run tracked",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..sinks.network import add_network_arguments
     from ..sinks.viewer.flags import add_viz_arguments  # viz imports rerun only when a viewer flag is used
 
     add_viz_arguments(p)
+    add_network_arguments(p)
 
 
 def resolve_config(recording, config_path: str | None):
@@ -88,15 +92,20 @@ def _track(args, default_out: Path | None, stopper) -> int:
     from ..capture.replay import RecordingSource
     from ..console import info, warn
     from ..errors import StereotrackError
+    from ..files import check_output
     from ..pipeline.assemble import make_tracker, open_sinks
-    from ..pipeline.run import run_pipeline
+    from ..pipeline.run import close_all, run_pipeline
     from ..recording import open_recording, read_truth
+    from ..sinks.network import check_network_flags
     from ..sinks.tracks_csv import read_tracks
 
+    check_network_flags(args)
     rec = open_recording(args.recording, calib=args.calib)
     rig = rec.require_rig()
     config = resolve_config(rec, args.config)
-    if args.start < 0 or args.start >= max(rec.n_frames, 1):
+    if rec.n_frames == 0:
+        raise StereotrackError(f"{rec.folder}: the recording holds no complete frame pair")
+    if args.start >= rec.n_frames:
         raise StereotrackError(f"--start {args.start} is outside the recording's {rec.n_frames} frames")
     stop = rec.n_frames if args.frames is None else min(rec.n_frames, args.start + args.frames)
     wanted = np.arange(args.start, stop)
@@ -104,10 +113,21 @@ def _track(args, default_out: Path | None, stopper) -> int:
         # a live run's recording: replay exactly the frames the live tracker had time for
         wanted = np.unique(rec.tracked_frames[(rec.tracked_frames >= args.start) & (rec.tracked_frames < stop)])
         info(f"replaying the {len(wanted)} frames the live run tracked, of {stop - args.start} recorded (--all-frames tracks every frame)")
-    out = Path(args.out) if args.out else (default_out or rec.folder / "tracks.csv")
-    truth = read_truth(rec.truth_path) if rec.truth_path else None
-    tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
-    sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth)
+    # Every output is checked before anything is written; none may be one of the run's inputs.
+    inputs = [*rec.own_files, rec.targets_path, args.config, args.calib]
+    out = check_output(args.out if args.out is not None else (default_out or rec.folder / "tracks.csv"), "--out", "tracks CSV", inputs)
+    truth = None
+    if rec.truth_path:
+        try:
+            truth = read_truth(rec.truth_path)
+        except StereotrackError as exc:  # scoring is a bonus; never refuse the run for it
+            warn(f"not scoring against truth.csv: {exc}")
+    sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth, protect=inputs)  # a missing viewer or a taken port: refused here
+    try:
+        tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
+    except BaseException:
+        close_all(sinks)
+        raise
     viz_sink = next((s for s in sinks if hasattr(s, "rrd_path")), None)
     only = None if len(wanted) == stop - args.start else wanted
     source = RecordingSource(rec, realtime=args.realtime, start=args.start, stop=stop, only=only)

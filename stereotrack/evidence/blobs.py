@@ -26,6 +26,8 @@ class Blobs:
     label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
     label_scale: int = 1  # pixel (u, v) has label labels[v // label_scale, u // label_scale]
     boxes: np.ndarray | None = None  # M x 4 bounding boxes (x0, y0, x1, y1), end exclusive, in label cells (components only)
+    sizes: np.ndarray | None = None  # M x 2 width and height of the set pixels, full-resolution pixels (components only)
+    axes: np.ndarray | None = None  # M x 2 semi-major and semi-minor axes of the ellipse with the blob's second moments, pixels
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -42,9 +44,9 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     label_blob = np.full(n, -1)
     label_blob[1:][keep] = np.arange(keep.sum())
     boxes = boxes[keep]
-    areas, centres, size = mask_moments(mask, boxes, scale)  # each blob measured at full resolution
+    areas, centres, size, second = mask_moments(mask, boxes, scale)  # each blob measured at full resolution
     radii = 0.5 * size.max(axis=1) if len(size) else np.zeros(0)
-    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes)
+    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, _axes(second))
 
 
 def _local_maxima(hist: np.ndarray, min_count: float, min_gap: int = 5) -> np.ndarray:
@@ -101,3 +103,30 @@ def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6) 
     if method == "histogram":
         return _histogram(mask, min_area)
     raise ValueError(f"unknown blob method {method!r}")
+
+
+def _axes(second: np.ndarray) -> np.ndarray:
+    """Semi-axes (M x 2, major first) of the filled ellipses with these central second moments (xx, yy, xy):
+    a filled ellipse of semi-axes a, b has variances a^2 / 4 and b^2 / 4 along them."""
+    mean = 0.5 * (second[:, 0] + second[:, 1])
+    spread = np.sqrt(0.25 * (second[:, 0] - second[:, 1]) ** 2 + second[:, 2] ** 2)
+    return 2.0 * np.sqrt(np.maximum(np.column_stack([mean + spread, mean - spread]), 0.0))
+
+
+FILL = 0.6  # a blob must fill this much of its moments' ellipse: a disc, a cut disc or a streak do, a ring or a scatter do not
+DEPTH_SLACK = 1.6  # a blob may look this much larger or smaller than a ball at the nearest or farthest depth
+
+
+def ball_like(blobs: Blobs, focal_px: float, radius: float, d_min: float, d_max: float) -> np.ndarray:
+    """Per blob (M bool): could it be a ball of ``radius`` metres at some depth in [d_min, d_max]? Its
+    narrow axis must be a ball's radius there (a streak of a fast ball is long but a ball wide), and it
+    must be compact (it fills its ellipse): a wall, a speck or a scatter of pixels is not a ball. The
+    ball-shape likelihood judges the rest (corners of a box, a ring around it). Blobs without moments
+    (the histogram finder) pass."""
+    if blobs.axes is None or not len(blobs):
+        return np.ones(len(blobs), bool)
+    semi_minor = np.maximum(blobs.axes[:, 1], 0.5)
+    near, far = focal_px * radius / d_min, focal_px * radius / d_max  # apparent radii at d_min and at d_max
+    sized = (semi_minor <= near * DEPTH_SLACK) & (semi_minor >= far / DEPTH_SLACK)
+    fill = blobs.areas / np.maximum(np.pi * np.maximum(blobs.axes[:, 0], 0.5) * semi_minor, 1.0)
+    return sized & (fill >= FILL)

@@ -45,14 +45,15 @@ class CameraMasks:
 
     camera: str
     masks: dict[str, np.ndarray]  # target name -> uint8 0/1 mask
-    integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32
+    integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32 (empty when not asked for)
+    hsv: np.ndarray | None = None  # the frame in HSV, for colour models
 
 
-def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...]) -> CameraMasks:
-    """HSV conversion once, then one mask and one integral image per target."""
+def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...], integrals: bool = True) -> CameraMasks:
+    """HSV conversion once, then one mask and (unless ``integrals`` is False) one integral image per target."""
     hsv = to_hsv(image_bgr)
     masks = {t.name: target_mask(hsv, t) for t in targets}
-    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()})
+    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv)
 
 
 # --------------------------------------------------------------------------- learning

@@ -95,9 +95,10 @@ def window_counts(integral, uv, valid, window):
 
 
 @kernel
-def hidden_by_balls(eye, positions, centres, radii):
-    """Points whose line of sight from ``eye`` passes through a ball in front of them (N bool).
-    A point inside a ball is not hidden by that ball."""
+def hidden_by_balls(eye, positions, centres, radii, own_radius=0.0):
+    """Points whose line of sight from ``eye`` passes through a ball in front of them (N bool); with
+    ``own_radius``, balls of that radius centred on the points that a ball in front of them overlaps
+    in this view. A point inside a ball is not hidden by that ball."""
     n = positions.shape[0]
     hidden = np.zeros(n, np.bool_)
     for i in range(n):
@@ -107,7 +108,8 @@ def hidden_by_balls(eye, positions, centres, radii):
             v0, v1, v2 = centres[b, 0] - eye[0], centres[b, 1] - eye[1], centres[b, 2] - eye[2]
             along = (p0 * v0 + p1 * v1 + p2 * v2) / dist
             perp2 = v0 * v0 + v1 * v1 + v2 * v2 - along * along
-            if perp2 < radii[b] * radii[b] and along > 0.0 and along < dist - radii[b]:
+            reach = radii[b] + own_radius * along / dist  # the point's ball, scaled to the occluder's depth
+            if perp2 < reach * reach and along > 0.0 and along < dist - radii[b]:
                 hidden[i] = True
                 break
     return hidden
@@ -152,3 +154,130 @@ def nearest_within(points, centres, limit):
                 best = d2
                 out[i] = c
     return out
+
+
+@kernel(inline="always")
+def _rect_count(integral, x_lo, x_hi, y_lo, y_hi):
+    """(set pixels, pixels) of the pixels whose centres lie in [x_lo, x_hi] x [y_lo, y_hi], clipped to the image."""
+    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+    x0 = min(max(int(math.ceil(x_lo)), 0), w)
+    x1 = min(max(int(math.floor(x_hi)) + 1, 0), w)
+    y0 = min(max(int(math.ceil(y_lo)), 0), h)
+    y1 = min(max(int(math.floor(y_hi)) + 1, 0), h)
+    if x1 <= x0 or y1 <= y0:
+        return 0.0, 0.0
+    return float(integral[y1, x1] - integral[y0, x1] - integral[y1, x0] + integral[y0, x0]), float((x1 - x0) * (y1 - y0))
+
+
+@kernel(inline="always")
+def _box_count(integral, cx, cy, half):
+    """(set pixels, pixels) of the square of pixels whose centres lie within ``half`` of (cx, cy), clipped to the image."""
+    return _rect_count(integral, cx - half, cx + half, cy - half, cy + half)
+
+
+@kernel(inline="always")
+def _four(integral, u, v, dx, dy, half):
+    """Share set of four small squares at (u +- dx, v +- dy) (corners) or, with dy = 0, at (u +- dx, v) and (u, v +- dx) (sides)."""
+    c_sum, a_sum = 0.0, 0.0
+    for k in range(4):
+        if dy == 0.0:
+            ox = dx if k == 0 else (-dx if k == 1 else 0.0)
+            oy = 0.0 if k < 2 else (dx if k == 2 else -dx)
+        else:
+            ox = dx if k % 2 == 0 else -dx
+            oy = dy if k < 2 else -dy
+        c, a = _box_count(integral, u + ox, v + oy, half)
+        c_sum += c
+        a_sum += a
+    return c_sum / a_sum if a_sum > 0.0 else 0.0
+
+
+@kernel(inline="always")
+def _centre_surround(integral, u, v, r, inner, mid, outer, scale):
+    """How much a disc of apparent radius ``r`` at (u, v) is what this map shows there. Four looks, each a
+    share of set pixels: the disc's core (should be full), its four sides just inside its edge (full: a
+    patch smaller than the disc leaves them empty), the four corners of its bounding square (empty: a
+    square or a wider patch fills them), and the ring around it, on its second-emptiest side of four
+    (empty: a wall fills every side, its straight edge three, a neighbouring ball or box only one). The score
+    is core x sides x (1 - corners) x (1 - ring)."""
+    c_in, a_in = _box_count(integral, u, v, max(inner * r, 0.5))
+    if a_in == 0.0:
+        return 0.0
+    a_in *= scale  # a pixel is worth up to ``scale`` (a probability map x 255), else 1
+    a, b = mid * r, outer * r
+    ring, second = 1.0, 1.0  # the emptiest strip and the next
+    seen = 0
+    for k in range(4):  # the strips left, right, above and below the disc, each as long as the ring is wide
+        if k == 0:
+            c, n = _rect_count(integral, u - b, u - a, v - b, v + b)
+        elif k == 1:
+            c, n = _rect_count(integral, u + a, u + b, v - b, v + b)
+        elif k == 2:
+            c, n = _rect_count(integral, u - b, u + b, v - b, v - a)
+        else:
+            c, n = _rect_count(integral, u - b, u + b, v + a, v + b)
+        if n > 0.0:
+            share = c / (n * scale)
+            if share < ring:
+                ring, second = share, ring
+            elif share < second:
+                second = share
+            seen += 1
+    if seen == 0:  # no strip inside the image: judge by the core alone
+        ring = 0.0
+    elif seen > 1:  # two sides must be clear: a ball beside one object clears three, the edge of a wall one
+        ring = second
+    half = max(0.12 * r, 0.5)  # sides and corners: squares of 0.24 r, centred 0.85 r out: inside the disc, or outside it
+    sides = _four(integral, u, v, 0.85 * r, 0.0, half) / scale
+    corners = _four(integral, u, v, 0.85 * r, 0.85 * r, half) / scale
+    return (c_in / a_in) * sides * (1.0 - corners) * (1.0 - ring)
+
+
+@kernel
+def ball_shape_likelihood(
+    out,
+    positions,
+    R,
+    t,
+    K,
+    k,
+    tilt,
+    colour,
+    colour_scale,
+    moving,
+    use_moving,
+    radius,
+    inner,
+    mid,
+    outer,
+    floor,
+    eye,
+    occ_centres,
+    occ_radii,
+):
+    """Multiply ``out`` (N) by one camera's ball-shape factor for every particle: at the particle's depth the
+    ball spans r = f R / z pixels; its core should be full of evidence and the ring around it empty, in the
+    colour map (its pixels worth up to ``colour_scale``) or (``use_moving``) the moving-colour map (summed-area
+    tables), floored at ``floor``. Outside
+    the image or behind the camera: the floor; hidden from this camera (``eye``) by an occluding ball: 1; partly hidden: the core's fill alone."""
+    uv, front, z = project_points(positions, R, t, K, k, tilt)
+    hidden = hidden_by_balls(eye, positions, occ_centres, occ_radii)
+    cut = hidden_by_balls(eye, positions, occ_centres, occ_radii, radius)  # a disc a nearer ball cuts is no test of shape
+    f = 0.5 * (K[0, 0] + K[1, 1])
+    h, w = colour.shape[0] - 1, colour.shape[1] - 1
+    for i in range(positions.shape[0]):
+        if hidden[i]:
+            continue
+        u, v = uv[i, 0], uv[i, 1]
+        if not (front[i] and u >= 0.0 and v >= 0.0 and u < w and v < h):  # also NaN
+            out[i] *= floor
+            continue
+        r = f * radius / max(z[i], 1e-6)
+        if cut[i]:  # only the core's fill: evidence is there, whatever the shape the nearer ball leaves
+            c, a = _box_count(colour, u, v, max(inner * r, 0.5))
+            out[i] *= max(c / (a * colour_scale) if a > 0.0 else 0.0, floor)
+            continue
+        best = _centre_surround(colour, u, v, r, inner, mid, outer, colour_scale)
+        if use_moving:
+            best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0))
+        out[i] *= max(best, floor)

@@ -125,16 +125,16 @@ class RayProposal:
         """``mine``: this target's tracked balls (their blobs make no crossings: their balls have particles)."""
         s = self.settings
         origins, dirs, near, far = [], [], [], []
-        for v in views:
-            b = v.blobs
+        seeds = [v.proposal_seeds() for v in views]
+        for v, b in zip(views, seeds):
             if len(b) == 0:
                 continue
             if s.depth_from_size:
                 lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
             else:
                 lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
-            origins.append(v.origins)
-            dirs.append(v.directions)
+            origins.append(b.origins)
+            dirs.append(b.directions)
             near.append(lo)
             far.append(hi)
         if not origins:  # nothing of this colour in any image: search blindly
@@ -147,10 +147,10 @@ class RayProposal:
             held = None
             if mine is not None and len(mine):
                 held = []
-                for v in views:
+                for v, b in zip(views, seeds):
                     uv, ok = v.camera.project(mine.centres)
-                    d = np.linalg.norm(uv[:, None] - v.blobs.centres[None], axis=2)
-                    held.append((ok[:, None] & (d < np.maximum(v.blobs.radii[None], HELD_MIN_PX))).any(axis=0))
+                    d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
+                    held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)

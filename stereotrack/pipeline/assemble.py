@@ -34,17 +34,36 @@ def open_sinks(
     truth: np.ndarray | None = None,
     live: bool = False,
     extra: Sequence[Sink] = (),
+    protect: Sequence[Path | str | None] = (),
+    hold: bool = True,
 ) -> list[Sink]:
-    """Every sink of a run, in the order each frame goes to them: the tracks CSV (when given), the rerun viewer
-    (when a viewer flag is given), then ``extra`` (e.g. ``live --record``'s recorder). ``live``: the viewer skips
-    a frame rather than hold live cameras back."""
+    """Every sink of a run, in the order each frame goes to them: the network sink (--udp/--osc: first, it is
+    the low-latency feed), the tracks CSV (when given), the rerun viewer (when a viewer flag is given), then
+    ``extra`` (e.g. ``live --record``'s recorder). ``live``: the viewer skips a frame rather than hold live
+    cameras back. ``protect``: the run's inputs, which --rrd may not name; ``hold``: a served viewer keeps
+    serving after the run until Ctrl-C.
+
+    The network addresses are checked, then the viewer opens: a bad address, a viewer that is not there or a
+    port another program holds is refused before the tracks file exists (it is written under a temporary
+    name, see sinks/tracks_csv.py)."""
+    from ..sinks.network import make_network_sink
     from ..sinks.tracks_csv import TracksCsvSink
     from ..sinks.viewer.flags import make_viz_sink
 
-    sinks: list[Sink] = []
-    if tracks_csv is not None:
-        sinks.append(TracksCsvSink(tracks_csv))
-    viewer = make_viz_sink(args, rig, config, truth=truth, recording_name="live" if live else None, live=live)
+    network = make_network_sink(args, config)
+    opened: list[Sink] = [network] if network is not None else []
+    viewer = None
+    try:
+        viewer = make_viz_sink(
+            args, rig, config, truth=truth, recording_name="live" if live else None, live=live, protect=[*protect, tracks_csv], hold=hold
+        )
+        if tracks_csv is not None:
+            opened.append(TracksCsvSink(tracks_csv))
+    except BaseException:
+        for sink in [*opened, viewer]:
+            if sink is not None:
+                sink.close()
+        raise
     if viewer is not None:
-        sinks.append(viewer)
-    return sinks + list(extra)
+        opened.append(viewer)
+    return opened + list(extra)

@@ -49,6 +49,17 @@ def run_pipeline(
             bar.update(1, extra=f"{len(confirmed)} tracks")
     finally:
         bar.close()
-        for sink in sinks:
-            sink.close()
+        close_all(sinks)
     return RunSummary(frames, time.perf_counter() - start, float(np.median(step_ms)) if step_ms else 0.0, len(ids), max_objects)
+
+
+def close_all(sinks: Sequence[Sink]) -> None:
+    """Close every sink, even when one of them fails (its error is raised after the others are closed)."""
+    error: BaseException | None = None
+    for sink in sinks:
+        try:
+            sink.close()
+        except BaseException as exc:  # noqa: B036 - re-raised below once every sink had its chance to finish its file
+            error = error or exc
+    if error is not None:
+        raise error

@@ -16,7 +16,9 @@ from ..camera import Camera, Rig, intrinsics_from_fov, look_at
 from ..config import Config, Target
 from ..errors import StereotrackError
 from ..evidence.colour import camera_masks
+from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence
+from ..evidence.motion import BackgroundModel
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -48,6 +50,15 @@ class Tracker:
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks, rig)
         self.radius = {t.name: t.radius for t in config.targets}
+        self.backgrounds = [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in rig.cameras] if s.motion else None
+        self.colour_models = (
+            {
+                t.name: [ColourModel.for_target(t, load_colour_model(t.colour_model) if t.colour_model else None) for _ in rig.cameras]
+                for t in config.targets
+            }
+            if s.colour_model
+            else None
+        )
         self.last_time: float | None = None
 
     def step(self, pair: FramePair) -> FrameResult:
@@ -61,20 +72,35 @@ class Tracker:
         timings: dict[str, float] = {}
         t0 = time.perf_counter()
         cams = self.rig.cameras
-        cmasks = [camera_masks(cam.name, img, self.config.targets) for cam, img in zip(cams, pair.images)]
+        balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
+        # With colour models the range's mask is sharpened first (its integral image would be thrown away).
+        cmasks = [
+            camera_masks(cam.name, img, self.config.targets, integrals=self.colour_models is None) for cam, img in zip(cams, pair.images)
+        ]
+        foreground = (
+            [bg.foreground(img, balls) for bg, img in zip(self.backgrounds, pair.images)] if self.backgrounds else [None] * len(cams)
+        )
         t1 = time.perf_counter()
         timings["masks"] = 1e3 * (t1 - t0)
         # Each target's evidence in each camera, once: blobs and their viewing rays, read by every later stage.
         views = {
             t.name: tuple(
-                CameraEvidence.from_mask(cam, cm.masks[t.name], cm.integrals[t.name], s.blob_method, s.min_blob_area)
-                for cam, cm in zip(cams, cmasks)
+                CameraEvidence.from_mask(
+                    cam,
+                    cm.masks[t.name],
+                    cm.integrals.get(t.name),
+                    s.blob_method,
+                    s.min_blob_area,
+                    fg,
+                    (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
+                    self._colour_probability(t, j, cm, balls),
+                )
+                for j, (cam, cm, fg) in enumerate(zip(cams, cmasks, foreground))
             )
             for t in self.config.targets
         }
         t2 = time.perf_counter()
         timings["blobs"] = 1e3 * (t2 - t1)
-        balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
         confirmed = balls.confirmed_only()
         states = {t.name: self.populations[t.name].step(views[t.name], dt, confirmed) for t in self.config.targets}
         t3 = time.perf_counter()
@@ -109,6 +135,7 @@ class Tracker:
             else ()
         )
         masks = {(t.name, cm.camera): cm.masks[t.name] for cm in cmasks for t in self.config.targets}
+        evidence = {(name, v.camera.name): _kept(v) for name, vs in views.items() for v in vs}
         return FrameResult(
             frame=pair,
             particles=tuple(particle_sets),
@@ -116,8 +143,27 @@ class Tracker:
             tracks=tracks,
             rays=shown_rays,
             masks=masks,
+            evidence=evidence,
             timings_ms=timings,
         )
+
+    def _colour_probability(self, target, j: int, cm, balls: TrackedBalls) -> np.ndarray | None:
+        """p(ball | colour) of camera j's pixels for ``target`` (None without colour models); then the model
+        learns this frame, the ball's colours under the confirmed tracks of the target."""
+        if self.colour_models is None:
+            return None
+        model = self.colour_models[target.name][j]
+        probability = model.probability(cm.hsv)
+        cam = self.rig.cameras[j]
+        mine = balls.confirmed_only().of(target.name)
+        uv, front, depth = cam.view(mine.centres)
+        model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
+        return probability
+
+
+def _kept(view: CameraEvidence) -> np.ndarray:
+    """The pixels the observation model counts: the colour it kept, and the moving part of the range."""
+    return view.mask if view.moving is None else cv2.bitwise_or(view.mask, view.moving)
 
 
 # --------------------------------------------------------------------------- warm-up

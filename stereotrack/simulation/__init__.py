@@ -6,6 +6,8 @@
 - ``render.py``: ``SceneRenderer``, any frame on its own.
 - ``write.py``: a scene rendered into a recording folder.
 - ``boards.py``: calibration boards rendered into camera views.
+- ``stage.py``, ``shapes.py``, ``hands.py``: 3D rooms, props and a juggler's hands, for scenes beyond flat backdrops.
+- ``stress.py`` (with ``placing.py``, ``rooms.py``): random stress scenes, one per (category, seed).
 """
 
 from .presets import load_scene_yaml, make_preset

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -194,10 +195,19 @@ def _build(cls, data: Any, where: str, path) -> Any:
     if unknown:
         raise StereotrackError(f"{path}: '{where}.{sorted(unknown)[0]}': unknown field (expected {', '.join(sorted(names))})")
     kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+    for f in dataclasses.fields(cls):  # numbers where numbers belong: a tuple field gets a list of numbers
+        if f.name in kwargs and str(f.type).startswith("tuple[") and ("float" in str(f.type) or "int" in str(f.type)):
+            value = kwargs[f.name]
+            if not isinstance(value, tuple) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                raise StereotrackError(f"{path}: '{where}.{f.name}': expected a list of numbers, got {value!r:.60}")
+        elif f.name in kwargs and str(f.type) in ("float", "int"):
+            value = kwargs[f.name]
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise StereotrackError(f"{path}: '{where}.{f.name}': expected a number, got {value!r:.60}")
     try:
         return cls(**kwargs)
-    except TypeError as exc:
-        raise StereotrackError(f"{path}: '{where}': {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise StereotrackError(f"{path}: '{where}': {str(exc).splitlines()[0][:120]}") from None
 
 
 def _ball(d: Any, i: int, path) -> BallSpec:
@@ -233,7 +243,13 @@ def scene_from_dict(data: Any, path: str | Path = "<scene>") -> SceneSpec:
         raise StereotrackError(f"{path}: 'rig': expected a mapping")
     scene_over = {k: data[k] for k in _SCENE_KEYS if k in data}
     if "preset" in data:
-        spec = make_preset(str(data["preset"]), **(data.get("params") or {}), **rig_data, **scene_over)
+        params = data.get("params") or {}
+        if not isinstance(params, dict) or not all(isinstance(k, str) for k in params):
+            raise StereotrackError(f"{path}: 'params': expected a mapping of preset parameters")
+        try:
+            spec = make_preset(str(data["preset"]), **params, **rig_data, **scene_over)
+        except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:  # a parameter of the wrong kind
+            raise StereotrackError(f"{path}: 'params': the preset cannot use these values ({str(exc).splitlines()[0][:100]})") from None
     else:
         if not isinstance(data.get("balls"), list) or not data["balls"]:
             raise StereotrackError(f"{path}: 'balls': expected a list of balls (or give a 'preset')")
@@ -249,7 +265,69 @@ def scene_from_dict(data: Any, path: str | Path = "<scene>") -> SceneSpec:
         spec = dataclasses.replace(spec, lighting=_build(Lighting, data["lighting"], "lighting", path))
     if "name" in data:
         spec = dataclasses.replace(spec, name=str(data["name"]))
+    check_scene(spec, path)
     return spec
+
+
+# Ranges of a scene's settings (field: lowest, highest, whole number); every other number must be finite.
+_SCENE_LIMITS = {
+    "fps": (1e-3, 1000, False),
+    "n_frames": (1, 100_000, True),
+    "seed": (0, 2**32 - 1, True),
+    "distractors": (0, 1000, True),
+    "noise": (0, 100, False),
+    "blur": (1, 32, True),
+    "exposure": (0, 1, False),
+    "jpeg_quality": (0, 100, True),
+}
+_RIG_LIMITS = {
+    "cameras": (2, 8, True),
+    "width": (32, 8192, True),
+    "height": (32, 8192, True),
+    "hfov": (1, 170, False),
+    "baseline": (1e-3, 10, False),
+    "aim_distance": (0.05, 100, False),
+}
+
+
+def check_scene(spec: SceneSpec, path: str | Path = "<scene>") -> None:
+    """Refuse a scene the renderer cannot draw: numbers out of range, not finite, or of the wrong kind."""
+    for section, obj, limits in (("", spec, _SCENE_LIMITS), ("rig.", spec.rig, _RIG_LIMITS)):
+        for name, (lo, hi, whole) in limits.items():
+            value = getattr(obj, name)
+            kind = "a whole number" if whole else "a number"
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not math.isfinite(value)
+                or (whole and value != int(value))
+            ):
+                raise StereotrackError(f"{path}: '{section}{name}': expected {kind}, got {value!r:.60}")
+            if not lo <= value <= hi:
+                raise StereotrackError(f"{path}: '{section}{name}': expected {kind} from {lo:g} to {hi:g}, got {value!r}")
+    if len(spec.rig.dist) not in (0, 4, 5, 8, 12, 14):
+        raise StereotrackError(f"{path}: 'rig.dist': expected 0, 4, 5, 8, 12 or 14 coefficients, got {len(spec.rig.dist)}")
+    for i, ball in enumerate(spec.balls):
+        if isinstance(ball.radius, bool) or not isinstance(ball.radius, (int, float)) or not 0.001 <= ball.radius <= 1:
+            raise StereotrackError(f"{path}: 'balls[{i}].radius': expected a ball radius in metres (0.001..1), got {ball.radius!r:.60}")
+    _check_finite(spec, path, "")
+
+
+def _check_finite(obj: Any, path, where: str) -> None:
+    """Every number in the scene's dataclasses is a finite real number (a ball's 'disappear' may be infinite)."""
+    if dataclasses.is_dataclass(obj):
+        for f in dataclasses.fields(obj):
+            _check_finite(getattr(obj, f.name), path, f"{where}{'.' if where else ''}{f.name}")
+    elif isinstance(obj, (tuple, list)):
+        for i, v in enumerate(obj):
+            _check_finite(v, path, f"{where}[{i}]")
+    elif isinstance(obj, np.ndarray):
+        if obj.dtype.kind == "f" and not where.endswith("points") and not np.all(np.isfinite(obj)):
+            raise StereotrackError(f"{path}: '{where}': expected finite numbers")
+    elif isinstance(obj, float) and not math.isfinite(obj) and not where.endswith("disappear"):
+        raise StereotrackError(f"{path}: '{where}': expected a finite number, got {obj!r}")
+    elif obj is not None and not isinstance(obj, (str, bool, int, float, np.ndarray)):
+        raise StereotrackError(f"{path}: '{where}': expected a number or a list of numbers, got {obj!r:.60}")
 
 
 def load_scene_yaml(path: str | Path) -> SceneSpec:

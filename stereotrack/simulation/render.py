@@ -1,10 +1,15 @@
 """Rendering a synthetic scene (``spec.py``): any frame on its own, with exact ground truth.
 
 A scene is a rig of toed-in cameras, balls on trajectories, a textured
-background, optional distractors and occluders, lighting, noise, blur and
-compression. ``SceneRenderer`` renders true spheres by per-pixel ray-sphere
-intersection through the camera model, so perspective and lens distortion
-are exact; ``write.render_scene`` writes a whole recording folder.
+background (or a 3D stage), optional distractors, occluders and movers
+(hands), lighting, noise, blur and compression. ``SceneRenderer`` renders
+true spheres by per-pixel ray-sphere intersection through the camera model,
+so perspective and lens distortion are exact; ``write.render_scene`` writes
+a whole recording folder.
+
+Per camera, everything static (the background or stage, the occluders) is
+drawn once; each frame copies it and redraws only the part of the image
+that balls and movers touch during the exposure, once per sub-frame.
 """
 
 from __future__ import annotations
@@ -15,7 +20,8 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
-from .spec import BallSpec, Occluder, SceneSpec
+from .spec import CameraResponse, Occluder, SceneSpec
+from .stage import pixel_rays, render_stage
 
 # --------------------------------------------------------------------------- rendering
 
@@ -59,8 +65,14 @@ class _CameraCache:
     camera: Camera
     rays: np.ndarray  # H x W x 3 float32 unit directions, world frame
     centre: np.ndarray  # 3
-    background: np.ndarray  # H x W x 3 float32
+    background: np.ndarray  # H x W x 3 float32: the static scene, occluders drawn in
+    depth: np.ndarray  # H x W float32: distance along each ray to the static scene (inf: nothing)
+    ids: np.ndarray  # H x W int16: what the static scene shows (see SceneRenderer.labels)
+    tags: np.ndarray | None  # H x W uint8 material tags of a stage, else None
     focal: float
+    background_sum: np.ndarray  # the background added once per sub-frame, as a frame's sub-frames are
+    response: CameraResponse
+    response_map: np.ndarray | None  # H x W x 3 per-pixel gains (white balance, vignetting), None when neutral
 
 
 class SceneRenderer:
@@ -81,14 +93,28 @@ class SceneRenderer:
         hue = int(cv2.cvtColor(spec.balls[0].bgr.astype(np.uint8)[None, None], cv2.COLOR_BGR2HSV)[0, 0, 0]) if spec.balls else 0
         w, h = spec.rig.width, spec.rig.height
         uu, vv = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
-        pixels = np.column_stack([uu.ravel(), vv.ravel()])
+        self._n_sub = max(1, int(spec.blur))
         self._cams = []
-        for cam in self.rig.cameras:
-            _, dirs = cam.rays(pixels)  # undistorted, so lens distortion is exact
-            bg = make_background(rng, w, h, spec.distractors, hue)
-            self._cams.append(
-                _CameraCache(cam, dirs.reshape(h, w, 3).astype(np.float32), cam.centre.astype(np.float32), bg, float(cam.K[0, 0]))
-            )
+        for i, cam in enumerate(self.rig.cameras):
+            response = spec.response(i)
+            rays = pixel_rays(cam, uu, vv)  # undistorted, so lens distortion is exact
+            tags = None
+            if spec.stage is None:
+                bg = make_background(rng, w, h, spec.distractors, hue)
+                depth, ids = np.full((h, w), np.inf, np.float32), np.full((h, w), -1, np.int16)
+            else:
+                stage = render_stage(spec.stage, cam, spec.lighting, response.gamma)
+                bg, depth, ids, tags = stage.colour, stage.depth, stage.ids, stage.tags
+            cc = _CameraCache(cam, rays, cam.centre.astype(np.float32), bg, depth, ids, tags, float(cam.K[0, 0]), bg, response, None)
+            for k, occ in enumerate(spec.occluders):  # static, so drawn once
+                self._draw_box(cc, -2 - k, occ)
+            for _ in range(self._n_sub - 1):
+                cc.background_sum = cc.background_sum + bg
+            if response.vignette > 0 or response.gains != (1.0, 1.0, 1.0):
+                yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+                r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
+                cc.response_map = (1.0 - response.vignette * r2)[:, :, None] * np.asarray(response.gains, np.float32)
+            self._cams.append(cc)
         # One bank of Gaussian noise; each frame reads it at seeded offsets (cheap, still Gaussian per pixel).
         self._noise = (rng.standard_normal(2 * w * h * 3, dtype=np.float32) * spec.noise) if spec.noise > 0 else None
 
@@ -107,23 +133,38 @@ class SceneRenderer:
                 out[k] = b.trajectory.positions(np.array([t]))[0]
         return out
 
+    def stage_tags(self, camera: int) -> np.ndarray | None:
+        """H x W material tags of the stage as camera ``camera`` sees it (shapes.TAG_*), or None without a stage."""
+        return self._cams[camera].tags
+
     def render(self, frame: int) -> tuple[tuple[np.ndarray, ...], list[tuple[int, float, float, float, int]]]:
         spec = self.spec
         t = self.time(frame)
         rng = np.random.default_rng([spec.seed, frame])
-        gain = spec.lighting.brightness(t)
-        n_sub = max(1, int(spec.blur))
+        n_sub = self._n_sub
         offsets = ((np.arange(n_sub) + 0.5) / n_sub - 0.5) * spec.exposure / spec.fps if n_sub > 1 else np.zeros(1)
-        sub_positions = [self.ball_positions(t + dt) for dt in offsets]
+        subs = [self._things(t + dt) for dt in offsets]
         images, visible = [], np.zeros(len(spec.balls), int)
         for cc in self._cams:
-            acc = None
-            for k, pos in enumerate(sub_positions):
-                img, ids = self._draw(cc, pos)
-                acc = img if acc is None else acc + img
-                if k == len(sub_positions) // 2:
-                    seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(spec.balls))[: len(spec.balls)]
-                    visible += seen > 0
+            acc = cc.background_sum.copy()
+            boxes = [self._boxes(cc, things) for things in subs]
+            crop = _union(boxes)
+            if crop is not None:
+                x0, y0, x1, y1 = crop
+                part = None
+                for k, (things, bx) in enumerate(zip(subs, boxes)):
+                    img, ids = self._draw(cc, things, bx, crop)
+                    part = img if part is None else part + img
+                    if k == len(subs) // 2:
+                        seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(spec.balls))[: len(spec.balls)]
+                        visible += seen > 0
+                acc[y0:y1, x0:x1] = part
+            response = cc.response
+            gain = spec.lighting.brightness(t) * response.brightness(t)
+            if response.gamma != 1.0:
+                gain = max(gain, 0.0) ** (1.0 / response.gamma)
+            if cc.response_map is not None:
+                acc = cv2.multiply(acc, cc.response_map)
             # gain * mean of sub-frames + noise, saturated to uint8, in one OpenCV pass.
             if self._noise is not None:
                 start = int(rng.integers(0, len(self._noise) - acc.size))
@@ -131,6 +172,8 @@ class SceneRenderer:
                 out = cv2.addWeighted(acc, gain / n_sub, noise, 1.0, 0.0, dtype=cv2.CV_8U)
             else:
                 out = cv2.addWeighted(acc, gain / n_sub, acc, 0.0, 0.0, dtype=cv2.CV_8U)
+            if response.greyscale:
+                out = cv2.cvtColor(cv2.cvtColor(out, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
             if spec.jpeg_quality > 0:
                 ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(spec.jpeg_quality)])
                 out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
@@ -149,90 +192,140 @@ class SceneRenderer:
         return tuple(images), truth
 
     def labels(self, frame: int) -> tuple[np.ndarray, ...]:
-        """Per camera, H x W int16: the ball index seen at each pixel at the frame's time.
+        """Per camera, H x W int16: what each pixel shows at the frame's time.
 
-        -1 is background, -2 - k is occluder k. Edge pixels count for a ball
+        k >= 0 is ball k, -1 the background (or a stage's walls), -2 - k
+        occluder k, -1000 - k the stage's prop k, MOVER_IDS - j the j-th
+        ellipsoid of the movers (hands, arms). Edge pixels count for a ball
         when it covers at least half of them. For measuring colour masks.
         """
-        pos = self.ball_positions(self.time(frame))
-        return tuple(self._draw(cc, pos)[1] for cc in self._cams)
+        things = self._things(self.time(frame))
+        out = []
+        for cc in self._cams:
+            ids = cc.ids.copy()
+            boxes = self._boxes(cc, things)
+            crop = _union([boxes])
+            if crop is not None:
+                x0, y0, x1, y1 = crop
+                ids[y0:y1, x0:x1] = self._draw(cc, things, boxes, crop)[1]
+            out.append(ids)
+        return tuple(out)
 
-    # ---- one camera, one instant: z-buffered balls and occluders over the background
-    def _draw(self, cc: _CameraCache, ball_pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        h, w = cc.rays.shape[:2]
-        img = cc.background.copy()
-        zbuf = np.full((h, w), np.inf, np.float32)
-        ids = np.full((h, w), -1, np.int16)
-        items = []
-        for k, (b, c) in enumerate(zip(self.spec.balls, ball_pos)):
+    # ---- moving things at one instant: (id, object, centre, bounding radius)
+    def _things(self, t: float) -> list[tuple]:
+        out = []
+        for k, (b, c) in enumerate(zip(self.spec.balls, self.ball_positions(t))):
             if not np.isnan(c[0]):
-                items.append((float(np.linalg.norm(c - cc.centre)), "ball", k, b, c))
-        for k, occ in enumerate(self.spec.occluders):
-            items.append((float(np.linalg.norm(np.asarray(occ.centre) - cc.centre)), "box", -2 - k, occ, None))
-        for _, kind, k, obj, c in sorted(items, key=lambda it: -it[0]):  # far to near, so edges blend over what lies behind
-            if kind == "ball":
-                self._draw_ball(cc, img, zbuf, ids, k, obj, c.astype(np.float32))
-            else:
-                self._draw_box(cc, img, zbuf, ids, k, obj)
-        return img, ids
+                out.append((k, b, c, float(b.radius)))
+        shapes = [e for m in self.spec.movers for e in m.ellipsoids(t)]
+        for j, e in enumerate(shapes):
+            out.append((MOVER_IDS - j, e, np.asarray(e.centre, float), e.bound))
+        return out
 
-    def _ball_box(self, cc: _CameraCache, c: np.ndarray, r: float) -> tuple[int, int, int, int] | None:
-        """Pixel bounding box of a sphere: project its silhouette circle (the tangent cone), plus a margin."""
+    def _boxes(self, cc: _CameraCache, things: list[tuple]) -> list[tuple[int, int, int, int] | None]:
+        """Pixel bounding box of each thing: its bounding sphere's silhouette circle (the tangent cone), plus a margin."""
+        if not things:
+            return []
+        h, w = cc.rays.shape[:2]
+        c = np.array([th[2] for th in things], float)
+        r = np.array([th[3] for th in things], float)
         oc = c - cc.centre
-        dist = float(np.linalg.norm(oc))
-        if dist <= r * 1.01:
-            return None
-        axis = oc / dist
-        a = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
-        a /= np.linalg.norm(a)
+        dist = np.linalg.norm(oc, axis=1)
+        inside = dist <= r * 1.01
+        dist = np.where(inside, 2 * r, dist)
+        axis = oc / dist[:, None]
+        ref = np.where((np.abs(axis[:, 2]) < 0.9)[:, None], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+        a = np.cross(axis, ref)
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
         b = np.cross(axis, a)
         ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
         rim_r = 1.08 * r * np.sqrt(dist**2 - r**2) / dist
-        rim = cc.centre + axis * (dist - r * r / dist) + rim_r * (np.cos(ang)[:, None] * a + np.sin(ang)[:, None] * b)
-        uv, front = cc.camera.project(rim)
-        if not front.all():
-            return None
-        x0, y0 = np.floor(uv.min(axis=0)).astype(int) - 2
-        x1, y1 = np.ceil(uv.max(axis=0)).astype(int) + 3
-        h, w = cc.rays.shape[:2]
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
-        return None if x0 >= x1 or y0 >= y1 else (x0, y0, x1, y1)
+        rim = (cc.centre + axis * (dist - r * r / dist)[:, None])[:, None, :] + rim_r[:, None, None] * (
+            np.cos(ang)[None, :, None] * a[:, None, :] + np.sin(ang)[None, :, None] * b[:, None, :]
+        )
+        uv, front = cc.camera.project(rim.reshape(-1, 3))
+        uv, front = uv.reshape(len(c), 24, 2), front.reshape(len(c), 24)
+        out = []
+        for i in range(len(c)):
+            if inside[i]:  # the camera is inside it: a ball is not drawn, anything else covers the image
+                out.append(None if things[i][0] >= 0 else (0, 0, w, h))
+                continue
+            if not front[i].all():
+                out.append(None)
+                continue
+            x0, y0 = np.floor(uv[i].min(axis=0)).astype(int) - 2
+            x1, y1 = np.ceil(uv[i].max(axis=0)).astype(int) + 3
+            x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+            out.append(None if x0 >= x1 or y0 >= y1 else (int(x0), int(y0), int(x1), int(y1)))
+        return out
 
-    def _draw_ball(self, cc, img, zbuf, ids, k: int, ball: BallSpec, c: np.ndarray) -> None:
-        box = self._ball_box(cc, c.astype(float), ball.radius)
-        if box is None:
+    # ---- one camera, one instant: moving things z-buffered over the static scene, inside ``crop``
+    def _draw(self, cc: _CameraCache, things: list[tuple], boxes: list, crop: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+        x0, y0, x1, y1 = crop
+        img = cc.background[y0:y1, x0:x1].copy()
+        zbuf = cc.depth[y0:y1, x0:x1].copy()
+        ids = cc.ids[y0:y1, x0:x1].copy()
+        far_to_near = sorted(range(len(things)), key=lambda i: -float(np.linalg.norm(things[i][2] - cc.centre)))
+        for i in far_to_near:  # so edges blend over what lies behind
+            if boxes[i] is not None:
+                self._draw_round(cc, img, zbuf, ids, crop, boxes[i], things[i])
+        return img, ids
+
+    def _draw_round(self, cc, img, zbuf, ids, crop, box, thing) -> None:
+        """A ball or a mover's ellipsoid, with analytic anti-aliasing, into the crop's buffers."""
+        k, obj, c, _ = thing
+        x0, y0, x1, y1 = max(box[0], crop[0]), max(box[1], crop[1]), min(box[2], crop[2]), min(box[3], crop[3])
+        if x0 >= x1 or y0 >= y1:
             return
-        x0, y0, x1, y1 = box
         d = cc.rays[y0:y1, x0:x1]
-        oc = c - cc.centre
-        bproj = d @ oc  # distance along each ray to the closest approach
-        miss2 = np.maximum(float(oc @ oc) - bproj * bproj, 0.0)  # squared ray-centre distance
-        r = np.float32(ball.radius)
-        miss = np.sqrt(miss2)
-        # Analytic anti-aliasing: pixel coverage from the ray's distance to the silhouette, in pixels.
-        cover = np.clip(0.5 + (r - miss) * cc.focal / np.maximum(bproj, 1e-6), 0.0, 1.0)
-        tz = bproj - np.sqrt(np.maximum(r * r - miss2, 0.0))
-        mask = (cover > 0) & (bproj > 0) & (tz < zbuf[y0:y1, x0:x1])
-        if not mask.any():
-            return
-        dm, tm, cm = d[mask], tz[mask], cover[mask][:, None]
-        n = (cc.centre + tm[:, None] * dm - c) / r
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        win = (slice(y0 - crop[1], y1 - crop[1]), slice(x0 - crop[0], x1 - crop[0]))
+        lit = self.spec.lighting
+        if k >= 0:  # a ball: a true sphere
+            c = c.astype(np.float32)
+            oc = c - cc.centre
+            bproj = d @ oc  # distance along each ray to the closest approach
+            miss2 = np.maximum(float(oc @ oc) - bproj * bproj, 0.0)  # squared ray-centre distance
+            r = np.float32(obj.radius)
+            miss = np.sqrt(miss2)
+            # Pixel coverage from the ray's distance to the silhouette, in pixels.
+            cover = np.clip(0.5 + (r - miss) * cc.focal / np.maximum(bproj, 1e-6), 0.0, 1.0)
+            tz = bproj - np.sqrt(np.maximum(r * r - miss2, 0.0))
+            mask = (cover > 0) & (bproj > 0) & (tz < zbuf[win])
+            if not mask.any():
+                return
+            dm, tm, cm = d[mask], tz[mask], cover[mask][:, None]
+            n = (cc.centre + tm[:, None] * dm - c) / r
+            n /= np.linalg.norm(n, axis=1, keepdims=True)
+            albedo, specular, shininess = obj.bgr, lit.specular, lit.shininess
+        else:  # an ellipsoid: coverage from its normalised miss m (m = 1 on the silhouette), per pixel of image distance
+            tz, m, normals = obj.intersect(cc.centre, d)
+            gy, gx = np.gradient(m) if min(m.shape) > 1 else (np.ones_like(m), np.ones_like(m))
+            cover = np.clip(0.5 + (1.0 - m) / np.maximum(np.hypot(gx, gy), 1e-6), 0.0, 1.0)
+            mask = (cover > 0) & (tz > 0) & (tz < zbuf[win])
+            if not mask.any():
+                return
+            dm, tm, cm, n = d[mask], tz[mask], cover[mask][:, None], normals[mask]
+            mat = obj.material
+            albedo, specular, shininess = np.asarray(mat.colour, np.float32), mat.specular, mat.shininess
         L = self._light
         lam = np.clip(n @ L, 0.0, None)
         half = L - dm
         half /= np.linalg.norm(half, axis=1, keepdims=True)
-        spec = np.clip(np.sum(n * half, axis=1), 0.0, None) ** self.spec.lighting.shininess
-        lit = self.spec.lighting
-        colour = ball.bgr * (lit.ambient + lit.diffuse * lam)[:, None] + (255.0 * lit.specular * spec)[:, None]
-        region = img[y0:y1, x0:x1]
+        highlight = np.clip(np.sum(n * half, axis=1), 0.0, None) ** shininess
+        shade = lit.ambient + lit.diffuse * lam
+        if cc.response.gamma != 1.0:
+            shade = shade ** (1.0 / cc.response.gamma)
+        colour = albedo * shade[:, None] + (255.0 * specular * highlight)[:, None]
+        region = img[win]
         region[mask] = cm * colour + (1 - cm) * region[mask]
         solid = mask.copy()
         solid[mask] = cm[:, 0] >= 0.5
-        zbuf[y0:y1, x0:x1][solid] = tz[solid]
-        ids[y0:y1, x0:x1][solid] = k
+        zbuf[win][solid] = tz[solid]
+        ids[win][solid] = k
 
-    def _draw_box(self, cc, img, zbuf, ids, k: int, occ: Occluder) -> None:
+    def _draw_box(self, cc: _CameraCache, k: int, occ: Occluder) -> None:
+        """An occluder into the camera's static background, depth and ids."""
+        img, zbuf, ids = cc.background, cc.depth, cc.ids
         lo = np.asarray(occ.centre, float) - np.asarray(occ.size, float) / 2
         hi = lo + np.asarray(occ.size, float)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -263,6 +356,20 @@ class SceneRenderer:
         normals[np.arange(mask.sum()), face[mask]] = normal_sign
         lit = self.spec.lighting
         shade = lit.ambient + lit.diffuse * np.clip(normals @ self._light, 0.0, None)
+        if cc.response.gamma != 1.0:
+            shade = shade ** (1.0 / cc.response.gamma)
         img[y0:y1, x0:x1][mask] = np.asarray(occ.colour, np.float32) * shade[:, None]
         zbuf[y0:y1, x0:x1][mask] = t_near[mask]
         ids[y0:y1, x0:x1][mask] = k
+
+
+MOVER_IDS = -20000  # label of a mover's first ellipsoid (the j-th is MOVER_IDS - j)
+
+
+def _union(boxes: list[list]) -> tuple[int, int, int, int] | None:
+    """The part of the image that moving things touch during the exposure: the union of their boxes."""
+    b = [x for bx in boxes for x in bx if x is not None]
+    if not b:
+        return None
+    a = np.array(b)
+    return int(a[:, 0].min()), int(a[:, 1].min()), int(a[:, 2].max()), int(a[:, 3].max())

@@ -1,5 +1,11 @@
 """What a synthetic scene is: rig, balls on trajectories, occluders, lighting, noise (frozen dataclasses).
 
+Optional, for rooms rather than flat backdrops (all off by default): a 3D
+``stage`` (stage.py: walls, furniture, props), ``movers`` (hands.py: hands
+and arms that carry balls), a ``CameraResponse`` per camera (white balance,
+exposure, auto-exposure hunting, vignetting, tone curve, greyscale) and the
+``user_config`` a user would type instead of the ranges fitted to the balls.
+
 World frame ("world: custom"): origin midway between the camera centres,
 x to the right, y forward (away from the cameras), z up; gravity is -z.
 """
@@ -16,6 +22,7 @@ import numpy as np
 from ..camera import Camera, Rig, intrinsics_from_fov, look_at
 from ..config import Config, Target
 from ..errors import StereotrackError
+from .stage import Stage
 
 # Named ball colours (BGR albedo). Pink is the paper's ball colour.
 COLOURS: dict[str, tuple[int, int, int]] = {
@@ -101,9 +108,28 @@ class Lighting:
     shininess: float = 40.0
     flicker: float = 0.0  # global brightness swings by +-flicker (0.2 = +-20%) ...
     flicker_period: float = 3.0  # ... with this period, seconds
+    waves: tuple[tuple[float, float, float], ...] = ()  # more drift: (amplitude, period s, phase rad) each, added to the flicker
 
     def brightness(self, t: float) -> float:
-        return 1.0 + self.flicker * float(np.sin(2 * np.pi * t / self.flicker_period))
+        return 1.0 + self.flicker * float(np.sin(2 * np.pi * t / self.flicker_period)) + _waves(self.waves, t)
+
+
+def _waves(waves: Sequence[tuple[float, float, float]], t: float) -> float:
+    return sum(a * float(np.sin(2 * np.pi * t / period + phase)) for a, period, phase in waves)
+
+
+@dataclass(frozen=True)
+class CameraResponse:
+    """How one camera turns light into pixel values, beyond the scene's lighting (neutral by default)."""
+
+    gains: tuple[float, float, float] = (1.0, 1.0, 1.0)  # white balance times exposure: B, G, R multipliers
+    waves: tuple[tuple[float, float, float], ...] = ()  # auto exposure hunting: (amplitude, period s, phase rad) each
+    vignette: float = 0.0  # share of the brightness lost in the image corners
+    gamma: float = 1.0  # tone curve: a surface lit at s shows s ** (1 / gamma) of its colour (2.2 like sRGB; 1 = linear)
+    greyscale: bool = False  # a monochrome camera: three equal channels
+
+    def brightness(self, t: float) -> float:
+        return 1.0 + _waves(self.waves, t)
 
 
 @dataclass(frozen=True)
@@ -121,6 +147,10 @@ class SceneSpec:
     blur: int = 1  # motion blur: sub-frames averaged over the exposure (1 = none)
     exposure: float = 0.5  # exposure time as a fraction of the frame interval
     jpeg_quality: int = 0  # lossy compression: JPEG round trip at this quality (0 = off)
+    stage: Stage | None = None  # 3D scenery (walls, furniture, props) instead of the flat per-camera background
+    movers: tuple[Any, ...] = ()  # moving things that are not balls (hands.Hand): anything with ellipsoids(t)
+    responses: tuple[CameraResponse, ...] = ()  # one per camera (missing ones are neutral)
+    user_config: Config | None = None  # the config a user would type (targets, tracker settings); none = ranges fitted to the balls
 
     def targets(self) -> tuple[Target, ...]:
         """One target per ball colour with an HSV range that covers the rendered balls."""
@@ -131,7 +161,10 @@ class SceneSpec:
         return tuple(out.values())
 
     def config(self) -> Config:
-        return Config(targets=self.targets())
+        return self.user_config if self.user_config is not None else Config(targets=self.targets())
+
+    def response(self, camera: int) -> CameraResponse:
+        return self.responses[camera] if camera < len(self.responses) else CameraResponse()
 
 
 def target_for_colour(name: str, bgr: Sequence[float], radius: float, lighting: Lighting) -> Target:

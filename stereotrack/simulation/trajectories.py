@@ -119,4 +119,19 @@ class Samples:
         return out
 
 
-TRAJECTORIES = {"static": Static, "pendulum": Pendulum, "line": Line, "ballistic": Ballistic}
+@dataclass(frozen=True)
+class Flight:
+    """A ball in free flight: at ``start`` with ``velocity`` (m/s) at time ``t0``, then gravity (a throw, a pitch)."""
+
+    start: tuple[float, float, float]
+    velocity: tuple[float, float, float]
+    t0: float = 0.0
+
+    def positions(self, t: np.ndarray) -> np.ndarray:
+        tau = np.asarray(t, float) - self.t0
+        out = np.asarray(self.start, float) + tau[:, None] * np.asarray(self.velocity, float)
+        out[:, 2] -= 0.5 * G * tau**2
+        return out
+
+
+TRAJECTORIES = {"static": Static, "pendulum": Pendulum, "line": Line, "ballistic": Ballistic, "flight": Flight}

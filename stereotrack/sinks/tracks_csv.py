@@ -2,23 +2,26 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from ..files import read_columns
+from ..files import AtomicOutput, read_columns
 from ..results import FrameResult
 
 HEADER = ["frame", "time", "track_id", "x", "y", "z", "sx", "sy", "sz", "n_particles", "target"]
 
 
 class TracksCsvSink:
-    """Writes one row per confirmed track per frame; rows are flushed each frame so Ctrl-C keeps them."""
+    """Writes one row per confirmed track per frame, flushed every frame, into a temporary file beside
+    ``path`` that replaces it when the run ends or is stopped with Ctrl-C; a run that fails leaves the
+    previous file as it was (check the path first with ``files.check_output``)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = open(self.path, "w", newline="")
+        self._out = AtomicOutput(self.path, "tracks file")
+        self._file = self._out.open("w", newline="")
         self._file.write(",".join(HEADER) + "\n")
         self.rows = 0
 
@@ -37,10 +40,15 @@ class TracksCsvSink:
         self._file.flush()
 
     def close(self) -> None:
-        if not self._file.closed:
-            self._file.close()
+        if self._file.closed:
+            return
+        failing = sys.exc_info()[0]
+        if failing is None or issubclass(failing, KeyboardInterrupt):  # Ctrl-C keeps what was tracked
+            self._out.commit()
+        else:
+            self._out.abort()
 
 
 def read_tracks(path: str | Path) -> np.ndarray:
     """tracks.csv -> (M x 6) float array: frame, time, track_id, x, y, z (extra columns ignored)."""
-    return read_columns(path, HEADER[:6], "tracks file")
+    return read_columns(path, HEADER[:6], "tracks file", whole=("frame", "track_id"), nonnegative=("frame",))

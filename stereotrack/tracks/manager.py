@@ -33,7 +33,8 @@ from scipy.optimize import linear_sum_assignment
 
 from ..camera import Rig
 from ..config import TrackSettings
-from ..results import Object3D, TrackEstimate
+from ..results import Object3D, Parabola, TrackEstimate
+from .flight import fit_parabola
 from .kernels import association_costs, kalman_correct, kalman_predict
 
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
@@ -60,6 +61,7 @@ class _Track:
     n_particles: int = 0
     history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
     in_flight: bool = False  # gravity applies to its prediction
+    parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
     prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
 
 
@@ -243,8 +245,11 @@ class TrackManager:
             tr.history.append((time, np.array(z, float)))
         tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + _EPS_TIME]
         times = np.array([t for t, _ in tr.history])
+        positions = np.array([p for _, p in tr.history]).reshape(-1, 3)
         if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
-            tr.in_flight = in_free_flight(times, np.array([p for _, p in tr.history]), self.gravity)
+            tr.in_flight = in_free_flight(times, positions, self.gravity)
+        enough = len(times) >= 3 and times[-1] - times[0] > _EPS_TIME
+        tr.parabola = fit_parabola(times, positions, self.gravity) if tr.in_flight and enough else None
 
     def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> _Track:
         P = np.zeros((6, 6))
@@ -284,4 +289,5 @@ class TrackManager:
             state=state,
             n_particles=tr.n_particles,
             reported=bool(reported),
+            flight=tr.parabola,
         )

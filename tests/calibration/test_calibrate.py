@@ -493,10 +493,10 @@ def test_bad_input_is_one_line_and_keeps_the_previous_calibration(tmp_path, rend
             f.rename(f.with_name(f"r{int(f.stem)}.png"))
     save_board(Board("chessboard", (7, 7), 0.03) if case == "board does not match" else board, tmp_path / "board.yaml")
     out = tmp_path / "calib.yaml"
-    out.write_text("previous calibration\n")
+    out.write_text("cameras: []  # a previous calibration\n")  # an earlier calibration file: err lets --out replace only one
     r = run_cli("calibrate", "--board", tmp_path / "board.yaml", "--images", *dirs, "--out", out, "--no-progress")
     assert expected in one_line_error(r)
-    assert out.read_text() == "previous calibration\n" and not (tmp_path / "calib.report.yaml").exists()
+    assert out.read_text() == "cameras: []  # a previous calibration\n" and not (tmp_path / "calib.report.yaml").exists()
 
 
 def test_images_pair_by_exact_name_or_by_what_the_wildcard_matched(tmp_path):

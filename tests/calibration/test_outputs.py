@@ -144,6 +144,40 @@ def test_save_views_refuses_an_input_folder_and_a_bad_rrd_name(three_cameras):
     assert not (tmp / "again.yaml").exists()
 
 
+def test_outputs_that_are_not_ours_are_refused_before_the_fit(three_cameras):
+    """--rrd over a file that is not a rerun recording, --save-views over a same-named file that is not a PNG:
+    one line, before any work, and the user's files stay as they were."""
+    tmp, rig, dirs, r, report = three_cameras
+    notes = tmp / "notes.rrd"
+    notes.write_text("a user's notes\n")
+    clash = tmp / "clash"
+    clash.mkdir()
+    (clash / "coverage_cam0.png").write_text("not an image\n")
+    base = ["calibrate", "--board", tmp / "board.yaml", "--images", *dirs, "--out", tmp / "again.yaml", "--no-progress"]
+    for extra, words in (
+        (["--rrd", notes], "exists and is not a rerun recording"),
+        (["--rrd", dirs[0] / "view000.png.rrd", "--save-views", clash], "exists and is not a PNG image"),
+    ):
+        out = run_cli(*base, *extra)
+        assert out.returncode == 2 and out.stderr.startswith("error: ") and out.stderr.count("\n") == 1, out.stderr
+        assert words in out.stderr
+    assert notes.read_text() == "a user's notes\n" and (clash / "coverage_cam0.png").read_text() == "not an image\n"
+    assert sorted(p.name for p in clash.iterdir()) == ["coverage_cam0.png"]
+    assert not (tmp / "again.yaml").exists() and not (dirs[0] / "view000.png.rrd").exists()
+
+
+def test_a_failed_calibration_keeps_the_previous_rrd(tmp_path, three_cameras):
+    """The viewer's .rrd is written under a temporary name: a run that fails leaves the earlier file as it was."""
+    tmp, rig, dirs, r, report = three_cameras
+    path = tmp_path / "calib.rrd"
+    previous = (tmp / "calib.rrd").read_bytes()
+    path.write_bytes(previous)
+    with pytest.raises(RuntimeError, match="the fit failed"):
+        with CalibrationViewer(VizOutputs(rrd=path), BOARD, rig.names):
+            raise RuntimeError("the fit failed")
+    assert path.read_bytes() == previous and sorted(p.name for p in tmp_path.iterdir()) == ["calib.rrd"]
+
+
 def test_live_viewer_logs_each_view_as_it_is_taken(tmp_path):
     rng = np.random.default_rng(32)
     rig = calibration_rig(2, rng)

@@ -212,8 +212,8 @@ def test_cameras_checks_sync_of_simulated_cameras():
 @pytest.mark.skipif(any(Path("/dev").glob("video*")), reason="this machine has video devices")
 def test_cameras_says_clearly_when_there_are_none():
     res = run("cameras", "--probe-max", "3")
-    assert res.returncode == 1
-    assert "no video devices found (probed indices 0..3)" in res.stdout and res.stderr == ""
+    assert res.returncode == 2 and res.stdout == ""
+    assert res.stderr.startswith("error: no video devices found (probed indices 0..3)") and res.stderr.count("\n") == 1
 
 
 # --------------------------------------------------------------------------- live

@@ -78,7 +78,7 @@ def test_models_are_the_files_of_the_likelihoods_folder_and_a_wrong_name_is_one_
 
     pink = Target("pink", (140, 60, 50), (175, 255, 255))
     assert "colour_window" in available()
-    model = make_likelihood(TrackerSettings(window=7), pink)
+    model = make_likelihood(TrackerSettings(window=7, likelihood="colour_window"), pink)
     assert isinstance(model, ColourWindow) and model.window == 7
     with pytest.raises(StereotrackError, match="unknown model 'colour_windw'.*colour_window"):
         make_likelihood(TrackerSettings(likelihood="colour_windw"), pink)

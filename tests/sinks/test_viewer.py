@@ -14,6 +14,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -283,6 +284,9 @@ def test_raw_images_masks_and_rays(tmp_path):
     result = FrameResult(
         result.frame, result.particles, result.objects, result.tracks, (Rays("green", "cam1", o, d, np.zeros((2, 2))),), result.masks
     )
+    kept = np.zeros_like(result.masks[("green", "cam1")])
+    kept[10:15, 30:40] = 1  # the observation model kept half of the range's pixels
+    result = replace(result, evidence={("green", "cam1"): kept})
     path = tmp_path / "raw.rrd"
     with RerunSink(
         rig, Config(targets=TARGETS), VizOutputs(rrd=path), VizSettings(jpeg_quality=0, image_scale=1.0, masks=True, rays=True)
@@ -294,6 +298,8 @@ def test_raw_images_masks_and_rays(tmp_path):
     assert all("Transform3D:scale" not in r for r in rows["world/cameras/cam0/image"])  # full size: drawn as is
     mask = latest(rows["world/cameras/cam1/mask"], "SegmentationImage:buffer", 0)[0]
     assert np.count_nonzero(mask) == 100 and set(mask) == {0, 2}  # class 2 = the second target, green
+    after = latest(rows["world/cameras/cam1/evidence"], "SegmentationImage:buffer", 0)[0]
+    assert np.count_nonzero(after) == 50 and set(after) == {0, 2}
     strips = np.array(latest(rows["world/rays/green/cam1"], "LineStrips3D:strips", 0))
     assert strips.shape == (2, 2, 3)
     np.testing.assert_allclose(strips[:, 0], cam.centre + 0.2 * d, atol=1e-5)  # from d_min ...

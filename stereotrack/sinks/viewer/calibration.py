@@ -16,7 +16,7 @@ each view appears as it is taken; the fit follows when capture ends.
 
 from __future__ import annotations
 
-import subprocess
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -28,7 +28,7 @@ from ...calibration.boards import Board
 from ...calibration.report import format_report
 from ...calibration.solve import Calibration
 from ...calibration.views import ViewSet
-from .process import open_outputs
+from .process import finish_outlets, flush_bounded, open_outlets
 from .sink import VizOutputs
 from .style import APPLICATION_ID, PALETTE
 
@@ -50,8 +50,12 @@ class CalibrationViewer:
         self.rec = rr.RecordingStream(APPLICATION_ID)
         self.rec.set_log_time_enabled(False)
         self.rec.send_recording_name("calibration")
-        sinks, self._children, self.web_url = open_outputs(rr, outputs)
-        self.rec.set_sinks(*sinks, default_blueprint=_blueprint(camera_names))
+        self._closed = False
+        # Refuses a missing viewer or a taken port before anything is written; the .rrd is written under a
+        # temporary name and takes its own only when close() finishes a run that did not fail.
+        self._outlets = open_outlets(rr, outputs)
+        self.web_url = self._outlets.web_url
+        self.rec.set_sinks(*self._outlets.sinks, default_blueprint=_blueprint(camera_names))
 
     # ----------------------------------------------------------------- as views are taken
 
@@ -126,15 +130,16 @@ class CalibrationViewer:
             )
 
     def close(self) -> None:
-        self.rec.flush()
-        self.rec.disconnect()
-        for proc in self._children:  # a served web viewer dies with us; a spawned window stays
-            if "--serve-web" in proc.args and proc.poll() is None:
-                proc.terminate()
-                try:
-                    proc.wait(5)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
+        """Finish the log in bounded time; a served web viewer dies with us, a spawned window stays.
+        A run that failed (not Ctrl-C) leaves the previous .rrd as it was."""
+        if self._closed:
+            return
+        self._closed = True
+        failing = sys.exc_info()[0]
+        try:
+            flush_bounded(self.rec, self._outlets)
+        finally:
+            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or issubclass(failing, KeyboardInterrupt))
 
     @property
     def rrd_path(self) -> Path | None:

@@ -9,47 +9,15 @@ import numpy as np
 
 from ...camera import Rig
 from ...config import Config
-from .process import normalise_connect_url
+from ...files import check_output
+from .process import check_serve_address, check_viewer_listens, normalise_connect_url
 from .sink import RerunSink, VizOutputs, VizSettings
-
-
-def _parse_number(text: str, cast, expected: str):
-    try:
-        return cast(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
-
-
-def _positive_int(text: str) -> int:
-    value = _parse_number(text, int, "a whole number")
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def _quality(text: str) -> int:
-    value = _parse_number(text, int, "a whole number 0..100")
-    if not 0 <= value <= 100:
-        raise argparse.ArgumentTypeError(f"must be 0 (raw images) or 1..100, got {value}")
-    return value
-
-
-def _scale(text: str) -> float:
-    value = _parse_number(text, float, "a number")
-    if not 0 < value <= 1:
-        raise argparse.ArgumentTypeError(f"must be more than 0 and at most 1, got {value}")
-    return value
-
-
-def _seconds(text: str) -> float:
-    value = _parse_number(text, float, "seconds")
-    if not 0 <= value <= 600:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 600 seconds, got {value}")
-    return value
 
 
 def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
     """The viewer flags shared by `track`, `live` and `demo`."""
+    from ...argtypes import number, port
+
     g = parser.add_argument_group("rerun viewer (any of --rrd, --spawn, --connect, --serve turns it on)")
     g.add_argument("--rrd", metavar="FILE", type=Path, help="save the viewer log to FILE.rrd; open it later with 'rerun FILE.rrd'")
     g.add_argument("--spawn", action="store_true", help="start a rerun viewer window on this machine")
@@ -60,27 +28,33 @@ def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--bind", metavar="ADDR", default="127.0.0.1", help="address --serve listens on (default 127.0.0.1; 0.0.0.0 for every interface)"
     )
-    g.add_argument("--serve-port", metavar="PORT", type=_positive_int, default=9876, help="gRPC port for --serve (default 9876)")
-    g.add_argument("--web-port", metavar="PORT", type=_positive_int, default=9090, help="web viewer port for --serve (default 9090)")
-    g.add_argument("--viz-every", metavar="N", type=_positive_int, default=VizSettings.every, help="log every N-th frame (default 1)")
+    g.add_argument("--serve-port", metavar="PORT", type=port, default=9876, help="gRPC port for --serve (default 9876)")
+    g.add_argument("--web-port", metavar="PORT", type=port, default=9090, help="web viewer port for --serve (default 9090)")
+    g.add_argument(
+        "--viz-every",
+        metavar="N",
+        type=number(1, 1_000_000, integer=True),
+        default=VizSettings.every,
+        help="log every N-th frame (default 1)",
+    )
     g.add_argument(
         "--viz-max-particles",
         metavar="K",
-        type=_positive_int,
+        type=number(1, 10_000_000, integer=True),
         default=VizSettings.max_particles,
         help=f"log at most K particles per target and frame, a random subsample (default {VizSettings.max_particles})",
     )
     g.add_argument(
         "--viz-jpeg-quality",
         metavar="Q",
-        type=_quality,
+        type=number(0, 100, integer=True),
         default=VizSettings.jpeg_quality,
         help=f"JPEG quality of logged images, 1..100; 0 logs raw pixels (default {VizSettings.jpeg_quality})",
     )
     g.add_argument(
         "--viz-image-scale",
         metavar="S",
-        type=_scale,
+        type=number(above=0, hi=1),
         default=VizSettings.image_scale,
         help=f"log camera images at S times their size, 0 < S <= 1; overlays stay in the camera's pixels (default {VizSettings.image_scale})",
     )
@@ -90,7 +64,7 @@ def add_viz_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--viz-trail",
         metavar="SECONDS",
-        type=_seconds,
+        type=number(0, 600),
         default=VizSettings.trail_seconds,
         help="length of the tracks' fading trails (default 2)",
     )
@@ -119,11 +93,15 @@ def make_viz_sink(
     default_rrd: str | Path | None = None,
     recording_name: str | None = None,
     live: bool = False,
+    protect: list = (),
+    hold: bool = True,
 ) -> RerunSink | None:
     """The RerunSink the flags ask for, or None when no viewer output is given (and no default_rrd).
 
     ``live=True`` (live cameras): when logging lags, frames are skipped rather
-    than waited for, so the viewer never holds the tracker back.
+    than waited for, so the viewer never holds the tracker back. ``protect``:
+    the run's inputs and other outputs, which --rrd may not name. ``hold``: a
+    served viewer keeps serving after the run until Ctrl-C.
     """
     outputs = VizOutputs(
         rrd=Path(args.rrd) if args.rrd is not None else (Path(default_rrd) if default_rrd else None),
@@ -133,11 +111,16 @@ def make_viz_sink(
         bind=args.bind,
         grpc_port=args.serve_port,
         web_port=args.web_port,
+        hold=hold,
     )
     if not outputs.any:
         return None
-    if outputs.connect:
-        normalise_connect_url(outputs.connect)  # a bad URL fails before any work starts
+    if outputs.rrd is not None:
+        check_output(outputs.rrd, "--rrd", "rerun recording", protect)
+    if outputs.connect:  # network checks first: they fail in a second, before rerun and the tracker are loaded
+        check_viewer_listens(normalise_connect_url(outputs.connect))
+    if outputs.serve:
+        check_serve_address(outputs.bind, [("--serve-port", outputs.grpc_port), ("--web-port", outputs.web_port)])
     return RerunSink(
         rig, config, outputs, viz_settings_from_args(args, seed=config.tracker.seed, live=live), truth=truth, recording_name=recording_name
     )

@@ -9,6 +9,7 @@ Entity layout (what the README's viewer section explains)::
     world/cameras/<cam>            Transform3D camera-from-world (OpenCV R, t) + Pinhole (K)
     world/cameras/<cam>/image      the camera image (JPEG or raw)
     world/cameras/<cam>/mask       colour masks, one class id per target (optional)
+    world/cameras/<cam>/evidence   what the observation model kept of them: colour or motion (with the masks)
     world/cameras/<cam>/objects    clusters projected into the image: boxes of the ball's image size
     world/cameras/<cam>/tracks     confirmed tracks projected into the image, labelled
     world/particles/<target>       particles, coloured by cluster; class 0 sequential, 1 abductive
@@ -41,17 +42,17 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ...camera import Rig
+from ...capture.signals import StopOnSignals, stop_requested
 from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
 from .columns import ColumnWriter, Pending, SeriesBuffer, Trail
-from .process import open_outputs
+from .process import FLUSH_SECONDS, finish_outlets, flush_bounded, open_outlets
 from .style import (
     ABDUCTIVE,
     APPLICATION_ID,
@@ -165,7 +166,12 @@ class RerunSink:
         if recording_name:
             self.rec.send_recording_name(recording_name)
         self.blueprint = default_blueprint(rig, with_truth=self._truth is not None)
-        self.rec.set_sinks(*self._open_sinks(outputs), default_blueprint=self.blueprint)
+        self._outlets = open_outlets(rr, outputs)  # refuses a missing viewer or a taken port before anything is written
+        self._children = self._outlets.children
+        self.web_url = self._outlets.web_url
+        if self.web_url:
+            info(f"web viewer: {self.web_url}")
+        self.rec.set_sinks(*self._outlets.sinks, default_blueprint=self.blueprint)
         self._log_static()
         self.columns = ColumnWriter(
             rr, self.rec, rig, config.tracker.window, self.style, settings.trail_seconds, self._truth, self._truth_labels
@@ -179,11 +185,6 @@ class RerunSink:
         self._worker.start()
 
     # ----------------------------------------------------------------- setup
-
-    def _open_sinks(self, out: VizOutputs) -> list[Any]:
-        sinks, children, self.web_url = open_outputs(self.rr, out)
-        self._children.extend(children)
-        return sinks
 
     def _log_static(self) -> None:
         rr, rec = self.rr, self.rec
@@ -211,6 +212,7 @@ class RerunSink:
                 for i, t in enumerate(self.config.targets)
             ]
             rec.log(f"{path}/mask", rr.AnnotationContext(masks), static=True)
+            rec.log(f"{path}/evidence", rr.AnnotationContext(masks), static=True)
         rec.log(
             "world/particles",
             rr.AnnotationContext(
@@ -394,16 +396,19 @@ class RerunSink:
             self._log_rays(result)
 
     def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
-        label = None
-        for i, target in enumerate(self.config.targets):
-            mask = result.masks.get((target.name, cam_name))
-            if mask is None:
-                continue
-            if label is None:
-                label = np.zeros(mask.shape[:2], dtype=np.uint8)
-            label[mask > 0] = i + 1
-        if label is not None:
-            self.rec.log(f"{path}/mask", self.rr.SegmentationImage(label, opacity=0.5))
+        """Two layers: ``mask``, the pixels in each target's HSV range (before), and ``evidence``, those the
+        observation model counts (after: colour likelier on the ball than in the room, or moving)."""
+        for entity, masks in (("mask", result.masks), ("evidence", result.evidence)):
+            label = None
+            for i, target in enumerate(self.config.targets):
+                mask = masks.get((target.name, cam_name))
+                if mask is None:
+                    continue
+                if label is None:
+                    label = np.zeros(mask.shape[:2], dtype=np.uint8)
+                label[mask > 0] = i + 1
+            if label is not None:
+                self.rec.log(f"{path}/{entity}", self.rr.SegmentationImage(label, opacity=0.5))
 
     def _follow_trails(self, result: FrameResult, now: float) -> None:
         live = {t.track_id for t in result.tracks}
@@ -453,31 +458,29 @@ class RerunSink:
     # ----------------------------------------------------------------- end
 
     def close(self) -> None:
-        """Flush and finish the file (an .rrd with its footer), also after Ctrl-C; stop child viewers."""
+        """Finish the log, also after Ctrl-C, in bounded time: the .rrd gets its footer and its name, a viewer
+        what it takes within FLUSH_SECONDS; our viewer servers stop. A run that failed leaves no .rrd."""
         if self._closed:
             return
         self._closed = True
-        interrupted = sys.exc_info()[0] is not None
+        failing = sys.exc_info()[0]
         try:
-            self._queue.put(None)  # after the frames already queued: everything written so far reaches the file
-            self._worker.join()
-            self.rec.flush()
-            if self.outputs.serve and self.outputs.hold and not interrupted and self.web_url:
+            try:
+                self._queue.put(None, timeout=FLUSH_SECONDS)  # after the frames already queued: all of them reach the file
+            except queue.Full:
+                self._worker_error = self._worker_error or TimeoutError("the logging thread is stuck")
+            self._worker.join(FLUSH_SECONDS)
+            flush_bounded(self.rec, self._outlets)
+            if self.outputs.serve and self.outputs.hold and failing is None and self.web_url and not stop_requested():
                 info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
                 try:
-                    while all(p.poll() is None for p in self._children if p.args and "--serve-web" in p.args):
-                        time.sleep(0.5)
+                    with StopOnSignals() as held:  # one Ctrl-C (or SIGTERM) ends the hold
+                        while not held.requested and all(p.poll() is None for p in self._children if "--serve-web" in p.args):
+                            time.sleep(0.2)
                 except KeyboardInterrupt:
                     pass
         finally:
-            self.rec.disconnect()
-            for proc in self._children:
-                if "--serve-web" in proc.args and proc.poll() is None:
-                    proc.terminate()
-                    try:
-                        proc.wait(5)
-                    except subprocess.TimeoutExpired:
-                        proc.kill()
+            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or issubclass(failing, KeyboardInterrupt))
         if self._worker_error is not None:
             error = self._worker_error
             raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error

@@ -1,0 +1,78 @@
+"""What each part of the observation model costs: the tracker step against the floor with each part on and off.
+
+Renders ``pendulum4`` once per size into memory, then times the step of
+several tracker variants (N = 2000, alpha = 0.2) against the floor (HSV and a
+threshold per target), each frame floor then step back to back
+(``stereotrack bench``'s ``bench_case``). The variants run in turn, ROUNDS
+times, so a change in the shared machine's load falls on all of them; the
+figure is the median over rounds of each run's median step / floor.
+
+    .venv/bin/python benchmarks/observation_cost.py                    # 640x480 and 1280x720, 3 rounds
+    .venv/bin/python benchmarks/observation_cost.py --sizes 640x480 --rounds 1 --frames 40
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+# (label, tracker settings changed from the defaults)
+VARIANTS = [
+    ("default (all on)", {}),
+    ("no colour model", {"colour_model": False}),
+    ("no motion", {"motion": False}),
+    ("colour window likelihood", {"likelihood": "colour_window"}),
+    ("all off (the paper's model)", {"colour_model": False, "motion": False, "ball_blobs_only": False, "likelihood": "colour_window"}),
+]
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--sizes", nargs="+", default=["640x480", "1280x720"])
+    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
+    args = p.parse_args()
+
+    from stereotrack.frames import FramePair
+    from stereotrack.pipeline.bench import bench_case
+    from stereotrack.pipeline.tracker import warm_up
+    from stereotrack.simulation.presets import make_preset
+    from stereotrack.simulation.render import SceneRenderer
+
+    warm_up()
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores)", file=sys.stderr)
+    print("| size | variant | step ms | floor ms | step / floor | masks | blobs | particles |")
+    print("|---|---|---|---|---|---|---|---|")
+    for size in args.sizes:
+        w, h = (int(x) for x in size.split("x"))
+        spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)
+        renderer = SceneRenderer(spec)
+        frames = []
+        for i in range(spec.n_frames):
+            images, _ = renderer.render(i)
+            frames.append(FramePair(i, tuple(images), tuple(renderer.time(i) for _ in images)))
+        base = spec.config()
+        runs: dict[str, list[dict[str, float]]] = {label: [] for label, _ in VARIANTS}
+        for _ in range(args.rounds):
+            for label, changes in VARIANTS:
+                config = replace(base, tracker=replace(base.tracker, particles=2000, alpha=0.2, **changes))
+                runs[label].append(bench_case(frames, renderer.rig, config))
+        for label, _ in VARIANTS:
+            med = {k: statistics.median(r[k] for r in runs[label]) for k in ("step", "floor", "ratio", "masks", "blobs", "particles")}
+            print(
+                f"| {w}x{h} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | "
+                f"{med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} |",
+                flush=True,
+            )
+    print(f"load average at end: {os.getloadavg()[0]:.1f}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

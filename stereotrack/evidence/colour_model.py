@@ -1,0 +1,155 @@
+"""A target's colour against the background's: a per-pixel probability that a colour is the ball's, not just in/out of a box.
+
+Two hue-saturation histograms per target and camera (white balance differs
+between cameras): the ball's colours and the rest of the image's. Their
+ratio, read back per pixel (OpenCV's back-projection), is
+
+    p(ball | colour) = t(colour) / (t(colour) + b(colour)),
+
+with t and b normalised (equal priors). Inside the user's HSV range a
+colour that covers much of the room (a wall, a curtain, skin) gets a low p,
+a colour that is rare in the room (the ball) a high one. The ball's
+histogram starts uniform over the range's hues and saturations, or from a
+model learnt by ``stereotrack colour learn`` (a file the config names), and
+both are refined online: the ball's from the pixels under the confirmed
+tracks' discs, the background's from every other pixel, each as a slow
+running average.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+
+from ..config import Target
+from ..errors import StereotrackError
+
+H_BINS, S_BINS = 45, 32  # 4 hue steps and 8 saturation steps per bin
+_RANGES = [0, 180, 0, 256]
+VERSION = 1
+LEARN_STEP = 4  # histograms are learnt from every 4th pixel in each direction: colours, not positions, matter
+CORE = 0.7  # the part of a tracked ball's disc (in its radius) whose pixels teach the ball's colours
+
+
+def _normalised(hist: np.ndarray) -> np.ndarray:
+    total = float(hist.sum())
+    return (hist / total).astype(np.float32) if total > 0 else np.full(hist.shape, 1.0 / hist.size, np.float32)
+
+
+def box_histogram(target: Target) -> np.ndarray:
+    """Uniform over the hue and saturation bins the target's HSV range covers: the ball's colours before any is seen."""
+    hue = np.arange(H_BINS) * 180 // H_BINS + 180 // H_BINS // 2
+    sat = np.arange(S_BINS) * 256 // S_BINS + 256 // S_BINS // 2
+    lo, hi = target.hsv_min, target.hsv_max
+    in_hue = (hue >= lo[0]) | (hue <= hi[0]) if target.wraps else (hue >= lo[0]) & (hue <= hi[0])
+    in_sat = (sat >= lo[1]) & (sat <= hi[1])
+    hist = (in_hue[:, None] & in_sat[None, :]).astype(np.float32)
+    if not hist.any():  # a range narrower than a bin: the nearest bin
+        hist[min(int(lo[0]) * H_BINS // 180, H_BINS - 1), min(int(lo[1]) * S_BINS // 256, S_BINS - 1)] = 1.0
+    return _normalised(hist)
+
+
+def hs_histogram(hsv: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """Hue-saturation histogram (counts) of the pixels of ``hsv`` where ``mask`` is set (every pixel without one)."""
+    return cv2.calcHist([hsv], [0, 1], mask, [H_BINS, S_BINS], _RANGES)
+
+
+@dataclass
+class ColourModel:
+    """One target's colour model in one camera."""
+
+    ball: np.ndarray  # H_BINS x S_BINS, normalised
+    background: np.ndarray | None = None  # H_BINS x S_BINS, normalised; None until the first frame
+    rate: float = 0.05  # weight of each frame in the running averages
+
+    @classmethod
+    def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
+        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate)
+
+    def probability(self, hsv: np.ndarray) -> np.ndarray:
+        """p(ball | colour) per pixel, 0..255 (uint8)."""
+        if self.background is None:
+            self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
+        ratio = self.ball / np.maximum(self.ball + self.background, 1e-12)
+        return cv2.calcBackProject([hsv], [0, 1], (255.0 * ratio).astype(np.float32), _RANGES, 1)
+
+    def learn(
+        self, hsv: np.ndarray, in_range: np.ndarray, centres_uv: np.ndarray | None = None, radii_px: np.ndarray | None = None
+    ) -> None:
+        """Learn this frame: the ball's colours from the pixels in range under the discs of the tracked balls
+        (pixel centres and apparent radii; their cores), the background's from every other pixel."""
+        step = (slice(None, None, LEARN_STEP), slice(None, None, LEARN_STEP))
+        small = np.ascontiguousarray(hsv[step])
+        rest = None
+        if centres_uv is not None and len(centres_uv):
+            discs = disc_mask(small.shape[:2], np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
+            ball_px = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[step]))
+            if ball_px.any():
+                self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(hs_histogram(small, ball_px))
+            rest = cv2.bitwise_not(discs)
+        background = _normalised(hs_histogram(small, rest))
+        self.background = background if self.background is None else (1 - self.rate) * self.background + self.rate * background
+
+    # ----------------------------------------------------------------- file
+
+    def save(self, path: str | Path, target: Target, separation: float) -> None:
+        data = {
+            "version": VERSION,
+            "kind": "stereotrack colour model",
+            "target": target.name,
+            "bins": [H_BINS, S_BINS],
+            "separation": round(float(separation), 4),
+            "ball": np.round(self.ball, 6).tolist(),
+        }
+        Path(path).write_text(yaml.safe_dump(data, default_flow_style=None, sort_keys=False))
+
+
+def load_colour_model(path: str | Path) -> np.ndarray:
+    """The ball histogram of a colour model file written by ``stereotrack colour learn``; one clear error for
+    a missing, truncated or foreign file, or one of another version."""
+    path = Path(path)
+    if not path.is_file():
+        raise StereotrackError(f"{path}: colour model file not found (learn it again: stereotrack colour learn)")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise StereotrackError(
+            f"{path}: not a readable colour model ({type(exc).__name__}); learn it again with stereotrack colour learn"
+        ) from None
+    if not isinstance(data, dict) or data.get("kind") != "stereotrack colour model":
+        raise StereotrackError(f"{path}: not a stereotrack colour model file")
+    if data.get("version") != VERSION:
+        raise StereotrackError(
+            f"{path}: colour model version {data.get('version')!r}, this stereotrack reads version {VERSION}; learn it again"
+        )
+    try:
+        ball = np.asarray(data["ball"], dtype=np.float32)
+    except (KeyError, TypeError, ValueError):
+        raise StereotrackError(f"{path}: field 'ball' missing or not numbers (truncated file?); learn it again") from None
+    if ball.shape != (H_BINS, S_BINS) or not np.all(np.isfinite(ball)) or (ball < 0).any() or ball.sum() <= 0:
+        raise StereotrackError(f"{path}: field 'ball' must be {H_BINS}x{S_BINS} non-negative numbers (truncated file?); learn it again")
+    return ball
+
+
+def disc_mask(shape: tuple[int, int], centres_uv: np.ndarray, radii_px: np.ndarray, scale: float = CORE) -> np.ndarray:
+    """uint8 H x W, 255 inside the discs (radius x ``scale``) drawn at these pixel centres."""
+    h, w = shape
+    out = np.zeros((h, w), np.uint8)
+    for (u, v), r in zip(centres_uv, radii_px):
+        if np.isfinite(u) and np.isfinite(v) and -w < u < 2 * w and -h < v < 2 * h and 0 < r < w:
+            cv2.circle(out, (int(round(u)), int(round(v))), max(1, int(r * scale)), 255, -1)
+    return out
+
+
+def separation(probability: np.ndarray, ball: np.ndarray, in_range: np.ndarray) -> float:
+    """How well the model tells ball from background: the mean p(ball) on the ball's pixels minus that on the
+    other pixels in range (1: perfect, 0: no better than the range)."""
+    on = probability[ball > 0]
+    off = probability[(ball == 0) & (in_range > 0)]
+    if not len(on):
+        return 0.0
+    return float(on.mean() / 255.0 - (off.mean() / 255.0 if len(off) else 0.0))

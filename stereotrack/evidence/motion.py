@@ -1,0 +1,54 @@
+"""Motion: a background model per camera, so scenery of a ball's colour that never moves stops looking like a ball.
+
+The background is a running average of the frames, kept at half resolution
+(sensor noise averages out and it costs a quarter), and updated everywhere
+except under the discs of the balls the tracks predict: a ball that comes to
+rest (in a hand, on a table, at a pendulum's turning point) is never learnt
+into the background and stays foreground. A pixel is foreground when it
+differs from the background by more than ``threshold`` grey levels, summed
+over its three channels. The first frame starts the background, so nothing is foreground in
+it: motion adds evidence (a ball moving in front of a wall of its own
+colour), it never takes colour evidence away.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..camera import Camera
+from ..results import TrackedBalls
+
+SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
+_CHANNEL_SUM = np.ones((1, 3), np.float32)
+KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
+
+
+class BackgroundModel:
+    """One camera's background, learnt as frames come."""
+
+    def __init__(self, camera: Camera, rate: float, threshold: float):
+        self.camera = camera
+        self.rate = rate  # weight of each new frame in the running average (1 / frames it takes to learn a change)
+        self.threshold = threshold  # grey levels
+        self._background: np.ndarray | None = None  # float32, half size
+
+    def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
+        """This frame's foreground (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
+        h, w = image.shape[:2]
+        small = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA)
+        if self._background is None:
+            self._background = small.astype(np.float32)
+            return np.zeros((h, w), np.uint8)
+        diff = cv2.absdiff(small, cv2.convertScaleAbs(self._background))
+        change = cv2.transform(diff, _CHANNEL_SUM)  # |dB| + |dG| + |dR|, saturating at 255 (numpy's max over channels costs 20x)
+        moving = cv2.threshold(change, self.threshold, 1, cv2.THRESH_BINARY)[1]
+        learn = np.full(moving.shape, 255, np.uint8)
+        if balls is not None and len(balls):
+            uv, front, depth = self.camera.view(balls.centres)
+            r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
+            for (u, v), ok, radius in zip(uv, front, r):
+                if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
+                    cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
+        cv2.accumulateWeighted(small, self._background, self.rate, mask=learn)
+        return cv2.resize(moving, (w, h), interpolation=cv2.INTER_NEAREST)

@@ -1,0 +1,137 @@
+"""`stereotrack stress`: scores every category, reuses its renders and scores, writes its table where it says,
+refuses what it must, and stops its workers on Ctrl-C."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from stereotrack.cli import main as cli_main
+from stereotrack.commands.stress import Job, markdown_table, scene_key, summarise
+from stereotrack.files import read_section, replace_section
+from stereotrack.simulation.stress import CATEGORIES
+
+
+def test_summary_takes_median_and_worst_and_marks_the_goal():
+    def res(cat, seed, mota, err=5.0):
+        m = {"mota": mota, "id_switches": seed % 2, "mean_error_mm": err, "recall": 1.0, "precision": 1.0}
+        return {"category": cat, "seed": seed, "methods": {"particles": m}}
+
+    rows = summarise([res("a", 0, 0.99), res("a", 1, 0.96), res("a", 2, 0.90), res("b", 0, 0.97), res("b", 1, 0.5)], ["particles"])
+    assert [r["mota_median"] for r in rows] == [0.96, pytest.approx(0.735)]
+    assert rows[0]["mota_worst"] == 0.90 and rows[0]["worst_seed"] == 2 and rows[0]["id_switches_max"] == 1
+    table = markdown_table(rows)
+    assert "| a | particles | 3 | 0.960 | 0.900 (2) |" in table and table.count("| yes |") == 1
+
+
+def test_replace_section_keeps_the_rest_of_the_file(tmp_path):
+    doc = tmp_path / "evaluation.md"
+    doc.write_text("# Title\n\nkept text\n")
+    replace_section(doc, "stress", "table one")
+    replace_section(doc, "stress", "table two")
+    text = doc.read_text()
+    assert text.startswith("# Title\n\nkept text\n") and text.count("<!-- section: stress -->") == 1
+    assert read_section(doc, "stress") == "table two" and read_section(doc, "other") is None
+
+
+def test_the_command_scores_every_category_then_reuses_its_work(tmp_path, capsys):
+    args = ["stress", "--seeds", "1", "--frames", "6", "--scale", "0.25", "--jobs", "1", "--cache", str(tmp_path / "cache"), "--quiet"]
+    assert cli_main(args) == 0
+    out, err = capsys.readouterr()
+    rows = [line for line in out.splitlines() if line.startswith("| ") and "category" not in line]
+    assert len(rows) == 2 * len(CATEGORIES)
+    assert "(10 rendered" in err
+    per_seed = (tmp_path / "cache" / "tune-results.csv").read_text().splitlines()
+    assert len(per_seed) == 1 + 2 * len(CATEGORIES) and per_seed[1].startswith("hue_wall,0,particles,")
+    scores = sorted((tmp_path / "cache").rglob("score_*.json"))
+    assert len(scores) == 2 * len(CATEGORIES)
+    stamps = [p.stat().st_mtime_ns for p in scores]
+    assert cli_main(args) == 0
+    out2, err2 = capsys.readouterr()
+    assert out2 == out and "(0 rendered" in err2  # nothing rendered or tracked again
+    assert [p.stat().st_mtime_ns for p in scores] == stamps
+    job = Job("hands", 0, str(tmp_path / "cache"), frames=6, scale=0.25)
+    assert (job.folder / "truth.csv").is_file() and (job.folder / "scene.key").read_text().strip() == scene_key(job.spec())
+
+
+def test_docs_take_only_the_report_set_and_bad_arguments_are_one_line(tmp_path, capsys):
+    doc = tmp_path / "evaluation.md"
+    doc.write_text("# Evaluation\n")
+    assert cli_main(["stress", "--set", "tune", "--seeds", "1", "--docs", str(doc)]) == 2
+    assert cli_main(["stress", "--set", "report", "--seeds", "1", "--frames", "5", "--docs", str(doc)]) == 2
+    assert cli_main(["stress", "--categories", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("error:") == 3 and "--set report" in err and "unknown stress category 'nope'" in err
+    assert doc.read_text() == "# Evaluation\n"
+
+
+def test_list_names_every_category(capsys):
+    assert cli_main(["stress", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert [line.split()[0] for line in out.splitlines()] == list(CATEGORIES)
+
+
+def _ctrl_c_enabled() -> None:
+    """In the child: its own process group (a terminal's Ctrl-C reaches the whole group), SIGINT at its default."""
+    os.setpgid(0, 0)
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _group(pgid: int) -> list[int]:
+    """The live (not zombie) processes of a process group."""
+    out = subprocess.run(["ps", "-e", "-o", "pid=,pgid=,stat="], capture_output=True, text=True).stdout
+    return [int(pid) for pid, group, stat in (line.split() for line in out.splitlines()) if int(group) == pgid and "Z" not in stat]
+
+
+def test_ctrl_c_ends_in_seconds_kills_the_workers_and_keeps_nothing_half_done(tmp_path):
+    """A real Ctrl-C (SIGINT to the process group) while both workers render: one line, exit 130, no worker left,
+    no scene or score taken from a half-done job, the docs as they were; the next run clears what was left."""
+    doc = tmp_path / "evaluation.md"
+    doc.write_text("# Evaluation\n")
+    cache = tmp_path / "cache"
+    # The console script a user runs (the package is installed -e); from it, workers once inherited a SIGTERM handler
+    # that only took note, and the pool waited for them for ever.
+    script = Path(sys.executable).parent / "stereotrack"
+    command = [str(script)] if script.is_file() else [sys.executable, "-m", "stereotrack"]
+    args = ["stress", "--set", "report", "--seeds", "2", "--categories", "hue_wall", "--jobs", "2", "--cache", str(cache)]
+    proc = subprocess.Popen(
+        [*command, *args, "--docs", str(doc)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(cache.glob("*/.*.partial-*"))) < 2 and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)  # both workers are rendering
+        assert proc.poll() is None and len(_group(proc.pid)) >= 3, "the parent and two workers should be running"
+        os.killpg(proc.pid, signal.SIGINT)
+        sent = time.monotonic()
+        out, err = proc.communicate(timeout=20)
+        took = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and err.strip().splitlines() == ["interrupted by SIGINT"], err
+    assert took < 10 and "|" not in out
+    assert _group(proc.pid) == []  # every worker gone
+    assert doc.read_text() == "# Evaluation\n"
+    assert not list(cache.glob("*/0*/scene.key")) and not list(cache.rglob("score_*.json"))
+    assert list(cache.glob("*/.*.partial-*"))  # killed mid-render: the half-written scenes stayed hidden beside their folders
+    job = Job("hue_wall", 1_000_000, str(cache), frames=2, scale=0.2)
+    assert cli_main(["stress", "--set", "report", "--seeds", "1", "--categories", "hue_wall", "--frames", "2", "--scale", "0.2",
+                     "--jobs", "1", "--cache", str(cache), "--quiet"]) == 0  # fmt: skip
+    assert (job.folder / "scene.key").is_file() and not list(cache.glob("*/.*.partial-*"))
+
+
+def test_scenes_pin_no_tracker_setting_so_the_tracker_is_measured_as_configured():
+    """A scene's recording holds its typed target only (fast_ball: its depth range too); every other setting is the
+    checkout's default when `stress` tracks it, so changing a default changes what the next run measures."""
+    from stereotrack.config import config_to_dict
+    from stereotrack.simulation.stress import seeds, stress_scene
+
+    for category in CATEGORIES:
+        written = config_to_dict(stress_scene(category, seeds("report", 1)[0]).config())
+        assert set(written) <= {"targets", "tracker"}, (category, written)
+        assert set(written.get("tracker", {})) <= ({"d_min", "d_max"} if category == "fast_ball" else set()), (category, written)

@@ -1,0 +1,34 @@
+"""Blobs that could be a ball: the right width for some depth in range, and compact (a box passes here: the
+ball-shape likelihood judges its corners)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from stereotrack.evidence.blobs import ball_like, find_blobs
+
+F, R = 554.0, 0.035  # focal length in pixels, ball radius in metres: 19 px wide at 1 m, 3.9 px at 5 m
+
+
+def blob_of(draw) -> bool:
+    m = np.zeros((480, 640), np.uint8)
+    draw(m)
+    b = find_blobs(m)
+    assert len(b) == 1
+    return bool(ball_like(b, F, R, 0.2, 5.0)[0])
+
+
+def test_balls_pass():
+    assert blob_of(lambda m: cv2.circle(m, (300, 200), 12, 1, -1))  # a ball at 1.6 m
+    assert blob_of(lambda m: cv2.circle(m, (300, 200), 4, 1, -1))  # at 4.8 m
+    assert blob_of(
+        lambda m: cv2.ellipse(m, (300, 200), (12, 6), 0, 0, 360, 1, -1) * 0 + cv2.rectangle(m, (288, 194), (312, 200), 0, -1)
+    )  # half hidden
+    assert blob_of(lambda m: cv2.line(m, (200, 200), (300, 230), 1, 14))  # a streak: long, ball-wide (rounded ends drawn by the circle)
+
+
+def test_walls_rings_and_specks_fail():
+    assert not blob_of(lambda m: cv2.rectangle(m, (100, 50), (500, 450), 1, -1))  # a wall: wider than a ball at 0.2 m
+    assert not blob_of(lambda m: cv2.circle(m, (300, 200), 30, 1, 3))  # a ring (a hoop, a plate's rim): hollow
+    assert not blob_of(lambda m: cv2.rectangle(m, (300, 200), (302, 202), 1, -1))  # a speck: narrower than a ball at 5 m

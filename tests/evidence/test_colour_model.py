@@ -1,0 +1,98 @@
+import cv2
+import numpy as np
+import pytest
+
+from stereotrack.config import Target
+from stereotrack.errors import StereotrackError
+from stereotrack.evidence.colour import target_mask, to_hsv
+from stereotrack.evidence.colour_model import ColourModel, load_colour_model, separation
+
+# A user's range for a pink ball: hue 140-175 from saturation 60. The room has a wall of a duller magenta
+# that the range also takes in; the ball is a brighter, more saturated pink.
+PINK = Target("pink", (140, 60, 50), (175, 255, 255))
+WALL_HSV = (148, 110, 170)
+BALL_HSV = (166, 230, 220)
+
+
+def room(rng: np.random.Generator, ball_at=(400, 240), radius=18) -> np.ndarray:
+    """BGR 640x480: grey floor, a magenta wall over the left half, a pink ball, sensor noise."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (0, 0, 120)
+    hsv[:, :320] = WALL_HSV
+    cv2.circle(hsv, ball_at, radius, BALL_HSV, -1)
+    bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR).astype(np.int16)
+    return np.clip(bgr + rng.normal(0, 3, bgr.shape).round(), 0, 255).astype(np.uint8)
+
+
+def probability_at(model: ColourModel, hsv: np.ndarray, ys, xs) -> float:
+    return float(model.probability(hsv)[ys, xs].mean()) / 255.0
+
+
+def test_a_wall_in_the_range_counts_less_than_the_ball_and_learning_sharpens_it():
+    rng = np.random.default_rng(3)
+    img = room(rng)
+    hsv = to_hsv(img)
+    in_range = target_mask(hsv, PINK)
+    assert in_range[240, 100] and in_range[240, 400]  # the range alone cannot tell them apart
+    model = ColourModel.for_target(PINK)
+    wall = probability_at(model, hsv, slice(100, 380), slice(50, 300))
+    ball = probability_at(model, hsv, slice(235, 245), slice(395, 405))
+    assert wall < 0.2 and ball > 0.6  # the wall's colour covers a quarter of the room; the ball's hardly any
+    for _ in range(20):  # the ball tracked: its colours learnt under its disc
+        frame = to_hsv(room(rng))
+        model.learn(frame, target_mask(frame, PINK), np.array([[400.0, 240.0]]), np.array([18.0]))
+    assert probability_at(model, hsv, slice(235, 245), slice(395, 405)) > 0.95
+    assert probability_at(model, hsv, slice(100, 380), slice(50, 300)) < wall / 2
+    disc = np.zeros(in_range.shape, np.uint8)
+    cv2.circle(disc, (400, 240), 18, 1, -1)
+    assert separation(model.probability(hsv), disc, in_range) > 0.9
+
+
+def test_the_same_colour_on_the_ball_and_on_the_wall_is_not_sharpened_away():
+    """When the wall is the ball's exact colour the model cannot help; it must not make the ball vanish either."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (0, 0, 120)
+    hsv[:, :320] = BALL_HSV
+    model = ColourModel.for_target(PINK)
+    model.learn(hsv, target_mask(hsv, PINK), np.array([[400.0, 240.0]]), np.array([18.0]))
+    p = model.probability(hsv)
+    assert 0.0 < p[240, 100] / 255.0 < 0.7  # uncertain, not zero: shape and motion decide
+
+
+def write_model(tmp_path, **changes):
+    model = ColourModel.for_target(PINK)
+    path = tmp_path / "pink.colour.yaml"
+    model.save(path, PINK, 0.8)
+    return model, path
+
+
+def test_a_saved_model_reads_back(tmp_path):
+    model, path = write_model(tmp_path)
+    assert np.allclose(load_colour_model(path) / load_colour_model(path).sum(), model.ball, atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        ("missing", "colour model file not found"),
+        ("truncated", "truncated|not a readable|not a stereotrack"),
+        ("version", "version 99"),
+        ("bytes", "not a readable|not a stereotrack"),
+        ("other yaml", "not a stereotrack colour model"),
+    ],
+)
+def test_a_damaged_model_file_is_one_clear_error(tmp_path, damage, message):
+    _, path = write_model(tmp_path)
+    text = path.read_text()
+    if damage == "missing":
+        path.unlink()
+    elif damage == "truncated":
+        path.write_text(text[: len(text) // 2])
+    elif damage == "version":
+        path.write_text(text.replace("version: 1", "version: 99"))
+    elif damage == "bytes":
+        path.write_bytes(np.random.default_rng(0).integers(0, 256, 3000, dtype=np.uint8).tobytes())
+    else:
+        path.write_text("targets: []\n")
+    with pytest.raises(StereotrackError, match=message):
+        load_colour_model(path)

@@ -1,0 +1,68 @@
+"""The ball-shape likelihood: a ball-sized disc of evidence with an empty ring, at the particle's depth."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scene_helpers import RADIUS, default_rig, disc_masks, evidence
+
+from stereotrack.particles.likelihoods.ball_shape import BallShape
+from stereotrack.particles.likelihoods.colour_window import ColourWindow
+
+BALL = np.array([0.0, 1.5, 0.0])
+
+
+def _wall_masks(rig, ball=None):
+    """Each camera's mask: a wall of the ball's colour (a big rectangle) right of centre, and the ball's disc if given."""
+    masks, _ = disc_masks(rig, ball[None]) if ball is not None else ([np.zeros((c.height, c.width), np.uint8) for c in rig.cameras], None)
+    for m in masks:
+        cv2.rectangle(m, (360, 60), (600, 420), 1, -1)
+    return masks
+
+
+def _on_wall(rig):
+    """Points in the world that project onto the wall in both cameras, at the ball's depth."""
+    out = []
+    for x in np.linspace(0.22, 0.45, 6):
+        for z in np.linspace(-0.25, 0.25, 5):
+            p = np.array([x, 1.5, z])
+            if all(c.in_image(c.project(p[None])[0])[0] for c in rig.cameras):
+                out.append(p)
+    return np.array(out)
+
+
+def test_a_ball_scores_high_and_a_wall_of_its_colour_scores_the_floor():
+    rig = default_rig()
+    views = evidence(rig, _wall_masks(rig, BALL))
+    wall = _on_wall(rig)
+    shape, window = BallShape(RADIUS, 1 / 25), ColourWindow(5)
+    at_ball, on_wall = shape(BALL[None], views, None)[0], shape(wall, views, None)
+    assert at_ball > 0.5
+    assert on_wall.max() < 0.01 and on_wall.max() < at_ball / 50
+    # the paper's colour window cannot tell them apart: a full window is a full window
+    assert np.allclose(window(wall, views, None), window(BALL[None], views, None)[0])
+
+
+def test_a_speck_and_a_ball_at_the_wrong_depth_score_less_than_the_ball():
+    rig = default_rig()
+    shape = BallShape(RADIUS, 1 / 25)
+    masks, _ = disc_masks(rig, BALL[None])
+    views = evidence(rig, masks)
+    ray = BALL / np.linalg.norm(BALL)  # the cameras sit 0.15 m either side of the origin: close enough to one ray
+    too_near, right = shape(np.array([BALL - 0.5 * ray]), views, None)[0], shape(BALL[None], views, None)[0]
+    assert right > 2 * too_near
+    specks, _ = disc_masks(rig, BALL[None], radius=RADIUS / 4)
+    assert shape(BALL[None], evidence(rig, specks), None)[0] < right / 10
+
+
+def test_a_square_patch_the_size_of_the_ball_scores_less_than_the_disc():
+    rig = default_rig()
+    shape = BallShape(RADIUS, 1 / 25)
+    discs, _ = disc_masks(rig, BALL[None])
+    squares = []
+    for d in discs:
+        ys, xs = np.nonzero(d)
+        m = np.zeros_like(d)
+        m[ys.min() : ys.max() + 1, xs.min() : xs.max() + 1] = 1  # the disc's bounding square, filled
+        squares.append(m)
+    assert shape(BALL[None], evidence(rig, squares), None)[0] < 0.2 * shape(BALL[None], evidence(rig, discs), None)[0]

@@ -1,0 +1,94 @@
+"""benchmarks/real_footage.py: the hand-checked labels of the real ball videos, and the measure that scores any 2D evidence on them."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+_spec = importlib.util.spec_from_file_location("real_footage", ROOT / "benchmarks" / "real_footage.py")
+rf = importlib.util.module_from_spec(_spec)
+sys.modules["real_footage"] = rf  # dataclasses look their module up there
+_spec.loader.exec_module(rf)
+
+SIZES = {"ball2.mp4": (640, 480), "ball4.mp4": (1280, 720)}
+
+
+def test_labels_cover_every_tenth_frame_of_both_videos():
+    labels = rf.load_labels()
+    frames = {v: [lab.frame for lab in labels if lab.video == v] for v in SIZES}
+    assert frames["ball2.mp4"] == list(range(0, 1001, 10)) and frames["ball4.mp4"] == list(range(0, 491, 10))
+    balls = [lab for lab in labels if lab.ball]
+    assert len(balls) == 122 and (ROOT / "tests" / "data" / "ball-videos" / "LICENSE").is_file()
+    for lab in balls:
+        w, h = SIZES[lab.video]
+        assert 10 <= lab.radius <= 80 and 0 <= lab.x < w and 0 <= lab.y < h
+        cut = lab.x - lab.radius < 0 or lab.y - lab.radius < 0 or lab.x + lab.radius > w - 1 or lab.y + lab.radius > h - 1
+        assert cut == lab.partial, lab
+
+
+def test_a_blob_inside_the_circle_finds_the_ball_and_every_other_blob_is_false():
+    ball = rf.Label("v", 0, True, 100.0, 50.0, 10.0)
+
+    def score(label, centres):
+        found, false = rf.score_frame(label, np.array(centres, float))
+        return found, false.tolist()
+
+    assert score(ball, [[105.0, 55.0]]) == (True, [False])
+    assert score(ball, [[105.0, 55.0], [300.0, 40.0], [115.0, 50.0]]) == (True, [False, True, True])
+    assert score(ball, np.zeros((0, 2))) == (False, [])
+    assert score(rf.Label("v", 0, False), [[1.0, 2.0], [3.0, 4.0]]) == (False, [True, True])
+
+
+@pytest.fixture(scope="module")
+def drawn_video(tmp_path_factory):
+    """A short real video file: a green disc crossing a grey wall, with a small green speck that never moves."""
+    folder = tmp_path_factory.mktemp("video")
+    writer = cv2.VideoWriter(str(folder / "drawn.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (320, 240))
+    labels = []
+    for i in range(30):
+        img = np.full((240, 320, 3), 170, np.uint8)
+        cv2.circle(img, (300, 20), 4, (60, 200, 60), -1)
+        if i < 25:
+            x, y = 40 + 8 * i, 120
+            cv2.circle(img, (x, y), 15, (60, 200, 60), -1)
+            if i % 5 == 0:
+                labels.append(rf.Label("drawn.avi", i, True, float(x), float(y), 15.0))
+        elif i % 5 == 0:
+            labels.append(rf.Label("drawn.avi", i, False))
+        writer.write(img)
+    writer.release()
+    return folder, labels
+
+
+def test_measure_runs_the_evidence_over_every_frame_and_scores_the_labelled_ones(drawn_video):
+    folder, labels = drawn_video
+    hsv = rf.hsv_evidence((50, 100, 100), (70, 255, 255))
+    (score,) = rf.measure(hsv, labels, folder).values()
+    assert (score.frames, score.ball_frames, score.found) == (6, 5, 5)
+    assert score.false_blobs == 6 and score.frames_with_false == 6  # the speck, in every labelled frame
+    assert 3 <= score.false_radius <= 6
+    seen = []
+
+    def counting():
+        def evidence(image):
+            seen.append(image.shape)
+            return np.zeros((0, 2)), np.zeros(0)
+
+        return evidence
+
+    (nothing,) = rf.measure(counting, labels, folder).values()
+    assert nothing.found == 0 and nothing.found_share == 0 and len(seen) == 26  # frames 0..25, in order, each once
+
+
+def test_labels_match_the_real_videos():
+    videos = rf.find_videos()
+    if videos is None:
+        pytest.skip("the real ball videos are not here (set STEREOTRACK_REAL_DATA to the shared real-data folder)")
+    for video, (w, h) in SIZES.items():
+        cap = cv2.VideoCapture(str(videos / video))
+        assert (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))) == (w, h)
+        assert cap.get(cv2.CAP_PROP_FRAME_COUNT) > max(lab.frame for lab in rf.load_labels() if lab.video == video)
