@@ -68,6 +68,17 @@ class Progress:
                 self._last_decile = decile
                 print(self._line(now), file=sys.stderr, flush=True)
 
+    def say(self, status: str) -> None:
+        """A status worth a line of its own (a calibration view taken): the bar's text on a terminal,
+        a plain line elsewhere, so a log shows it as it happens rather than at the end."""
+        self.extra = status
+        if not self.enabled:
+            return
+        if self._tty:
+            self.update(0)
+        else:
+            print(self._line(time.perf_counter()), file=sys.stderr, flush=True)
+
     def rate(self) -> float:
         elapsed = time.perf_counter() - self.start
         return self.done / elapsed if elapsed > 0 else 0.0

@@ -224,6 +224,10 @@ OUTPUT_COMMANDS = {
     "record --out": (["record", "--cam0", "sim:dots", "--cam1", "sim:dots", "--seconds", "0.3", "--out"], ()),
     "board --out": (["board", "board.yaml", "--dpi", "60", "--out"], ()),
     "calibrate --out": (["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--no-progress", "--out"], ()),
+    "calibrate --rrd": (
+        ["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--no-progress", "--out", "o.yaml", "--rrd"],
+        ("o.yaml", "o.report.yaml"),
+    ),
     "colour learn --config": (["colour", "learn", "rec", "--name", "pink", "--roi", ROI, "--config"], ()),
 }
 # Where an output may point: a recording's own files, a user's files, folders, a link, inputs, nonsense, new places.

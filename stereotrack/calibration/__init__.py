@@ -2,9 +2,11 @@
 
 - ``boards.py``: board definitions, detection, printable boards.
 - ``views.py``: one image per camera for each moment the board was held still.
-- ``solve.py``: intrinsics per camera, then every camera's pose.
+- ``solve.py``: starts per camera and per pair, then the joint fit.
+- ``bundle.py``: the joint fit of every camera's lens and pose and every board pose.
 - ``measures.py``: the options and intrinsics, board points and poses, residuals.
-- ``report.py``: residuals, coverage and a verdict in plain words.
+- ``report.py``: residuals, baselines, coverage and a verdict in plain words.
+- ``annotate.py``: the views drawn with their corners and residuals (PNGs).
 """
 
 from .boards import MIN_CORNERS

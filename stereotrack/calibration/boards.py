@@ -151,7 +151,7 @@ class Detection:
         return len(self.ids)
 
 
-def _grey(image: np.ndarray) -> np.ndarray:
+def to_grey(image: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
 
 
@@ -167,7 +167,7 @@ class BoardDetector:
 
     def detect(self, image: np.ndarray) -> Detection | None:
         """The board's corners in ``image`` (BGR or grey), or None if not found."""
-        grey = _grey(image)
+        grey = to_grey(image)
         if self.board.type == "chessboard":
             flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
             found, corners = cv2.findChessboardCorners(grey, self.board.inner, flags=flags)
@@ -223,7 +223,7 @@ def diagnose(board: Board, images: list[np.ndarray]) -> str | None:
     dictionary, the other kind of board), or None if no board was found at all.
     """
     for image in images:
-        grey = _grey(image)
+        grey = to_grey(image)
         if board.type == "charuco":
             msg = _diagnose_charuco(board, grey)
             if msg:
@@ -359,6 +359,37 @@ def printable(board: Board, dpi: float = 300.0) -> PrintableBoard:
         y = margin + h + margin // 2 + line_h * (i + 1)
         cv2.putText(page, text, (margin, y), cv2.FONT_HERSHEY_SIMPLEX, scale * 0.9, 0, thickness, cv2.LINE_AA)
     return PrintableBoard(page, float(dpi), pps, pps / px_per_m)
+
+
+# Paper (width, height) in mm, and the edge most printers cannot print on.
+PAPER_MM = {"A4": (210.0, 297.0), "letter": (215.9, 279.4), "A3": (297.0, 420.0)}
+PRINTER_MARGIN_MM = 5.0
+
+
+def page_mm(page: PrintableBoard) -> tuple[float, float]:
+    """The printed page's (width, height) in mm: squares, quiet zone and the settings below them."""
+    h, w = page.image.shape[:2]
+    return 25.4 * w / page.dpi, 25.4 * h / page.dpi
+
+
+def paper_fit(size_mm: tuple[float, float], paper: str) -> str | None:
+    """'portrait' or 'landscape' if a page of ``size_mm`` fits on the paper within the printer's margins, else None."""
+    pw, ph = (x - 2 * PRINTER_MARGIN_MM for x in PAPER_MM[paper])
+    w, h = size_mm
+    if w <= pw and h <= ph:
+        return "portrait"
+    if w <= ph and h <= pw:
+        return "landscape"
+    return None
+
+
+def largest_square_for(board: Board, paper: str, dpi: float) -> float:
+    """The largest square side (metres, whole mm) whose page fits on ``paper``; 0 if none from 5 mm up does."""
+    for mm in range(int(1000 * board.square), 4, -1):
+        trial = replace(board, square=mm / 1000, marker=None if board.marker is None else board.marker * mm / 1000 / board.square)
+        if paper_fit(page_mm(printable(trial, dpi)), paper):
+            return mm / 1000
+    return 0.0
 
 
 def write_png_with_dpi(path: str | Path, image: np.ndarray, dpi: float) -> None:

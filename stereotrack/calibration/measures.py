@@ -1,4 +1,4 @@
-"""What solving and reporting share: the options, one camera's intrinsics, board points and poses, residuals, angles."""
+"""What solving and reporting share: the options, one camera's intrinsics, board points and poses, residuals, angles, the per-view fit."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 
 from ..camera import Camera
 from .boards import MIN_CORNERS, Board, Detection
+from .bundle import LensModel
 
 
 @dataclass(frozen=True)
@@ -18,9 +19,12 @@ class CalibrationOptions:
     zero_tangent: bool = False  # no tangential distortion (p1 = p2 = 0)
     fix_k3: bool = False  # no 6th-order radial term (steadier with few views)
     rational: bool = False  # 8-coefficient rational model (wide-angle lenses)
-    refine: bool = False  # after the stereo step, refine intrinsics and extrinsics jointly
+    joint: bool = True  # refine every camera and board pose at once (bundle.py); False: the pairwise starts only, to compare
     drop_worst: int = 0  # drop this many worst views and calibrate again
     world_view: str | None = None  # name of a view whose board pose is the world (z up); None: first camera
+
+    def lens_model(self) -> LensModel:
+        return LensModel(rational=self.rational, fix_k3=self.fix_k3, zero_tangent=self.zero_tangent, fix_aspect=self.fix_aspect)
 
     def flags(self) -> int:
         f = 0
@@ -91,3 +95,19 @@ def epipolar_errors(cam_i: Camera, cam_j: Camera, px_i: np.ndarray, px_j: np.nda
     dj = np.abs(np.sum(lj * uj, axis=1)) / np.hypot(lj[:, 0], lj[:, 1])
     di = np.abs(np.sum(li * ui, axis=1)) / np.hypot(li[:, 0], li[:, 1])
     return (di + dj) / 2
+
+
+@dataclass(frozen=True, eq=False)
+class ViewFit:
+    """What the fit says about every view: the detections it used (chessboards relabelled to agree
+    between cameras), where it puts each detected corner, the residuals and the board poses."""
+
+    detections: tuple[tuple[Detection | None, ...], ...]
+    reprojected: tuple[tuple[np.ndarray | None, ...], ...]  # pixels, one row per detected corner
+    board_R: np.ndarray  # (views, 3, 3) board -> world, in the rig's world
+    board_t: np.ndarray  # (views, 3)
+
+    def residuals(self, v: int, c: int) -> np.ndarray | None:
+        """Per corner: reprojected minus detected pixels (n x 2), or None if camera c did not see view v."""
+        d = self.detections[v][c]
+        return None if d is None else self.reprojected[v][c] - d.corners

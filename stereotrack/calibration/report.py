@@ -1,17 +1,19 @@
-"""The calibration report: per-camera and stereo RMS, epipolar error, per-view errors, coverage, and a verdict."""
+"""The calibration report: residuals after the fit per camera, pair and view, baselines with their uncertainty, coverage, a verdict."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from ..camera import Rig
 from ..files import dump_yaml, write_text_atomic
 from .boards import Board, board_to_dict
-from .measures import CalibrationOptions, Intrinsics, _angle_deg, _common, _reprojection, epipolar_errors
-from .views import RECOMMENDED_VIEWS, ViewSet, coverage
+from .bundle import CX, CY, FX, BundleResult
+from .measures import CalibrationOptions, Intrinsics, ViewFit, _angle_deg, _common, epipolar_errors
+from .views import RECOMMENDED_VIEWS, ViewSet, coverage, coverage_grid
 
 
 def _verdict(report: dict[str, Any]) -> tuple[str, list[str]]:
@@ -51,65 +53,54 @@ def _verdict(report: dict[str, Any]) -> tuple[str, list[str]]:
     return verdict, redo + usable
 
 
-def _report(
-    views: ViewSet, board: Board, dets, rig: Rig, intr: dict[int, Intrinsics], pairs: list[dict], options: CalibrationOptions
-) -> dict[str, Any]:
+def _report(views: ViewSet, board: Board, fit: ViewFit, rig: Rig, bundle_fit: BundleResult, intr: dict[int, Intrinsics], relabelled: int,
+            options: CalibrationOptions) -> dict[str, Any]:  # fmt: skip
+    """Residuals after the fit (per camera, pair and view), coverage, baselines with their uncertainty, and a verdict."""
     per_view: dict[int, dict[str, float]] = {v: {} for v in range(views.n_views)}
     cameras: dict[str, Any] = {}
     all_sq = []
+    joint = bundle_fit.covariance is not None
     for c, cam in enumerate(rig.cameras):
+        seen = views.seen_by(c)
         sq = []
-        for v in intr[c].views:
-            e = _reprojection(board, dets[v][c], cam.K, cam.dist)
-            per_view[v][cam.name] = round(float(np.sqrt(np.mean(e**2))), 4)
-            sq.append(e**2)
+        for v in seen:
+            e2 = np.sum(fit.residuals(v, c) ** 2, axis=1)
+            per_view[v][cam.name] = round(float(np.sqrt(e2.mean())), 4)
+            sq.append(e2)
         sq = np.concatenate(sq)
         all_sq.append(sq)
-        cov = coverage([dets[v][c].corners for v in intr[c].views], cam.image_size)
+        corners = [fit.detections[v][c].corners for v in seen]
+        fx_sd = bundle_fit.sd_intrinsic(c, FX) if joint else intr[c].std_f
         cameras[cam.name] = {
             "rms_px": round(float(np.sqrt(sq.mean())), 4),
-            "views": len(intr[c].views),
-            "coverage": round(cov, 3),
+            "views": len(seen),
+            "coverage": round(coverage(corners, cam.image_size), 3),
+            "coverage_grid": coverage_grid(corners, cam.image_size).tolist(),  # corners per cell of an 8-wide grid, top row first
             "fx": round(float(cam.K[0, 0]), 3),
             "fy": round(float(cam.K[1, 1]), 3),
-            "fx_std": round(intr[c].std_f, 3),
+            "fx_std": round(fx_sd, 3),
             "cx": round(float(cam.K[0, 2]), 3),
             "cy": round(float(cam.K[1, 2]), 3),
+            "centre_std": round(max(bundle_fit.sd_intrinsic(c, CX), bundle_fit.sd_intrinsic(c, CY)), 3) if joint else None,
             "dist": [round(float(x), 6) for x in cam.dist],
             "image_size": list(cam.image_size),
         }
     pair_reports = []
     epi_all = []
-    for pr in pairs:
-        ci, cj = rig.cameras[pr["p"]], rig.cameras[pr["c"]]
-        epi = []
-        for v, err in zip(pr["views"], pr["per_view"]):
-            a, b = _common(dets[v][pr["p"]], dets[v][pr["c"]])
-            epi.append(epipolar_errors(ci, cj, a.corners, b.corners))
-            per_view[v][f"stereo {ci.name}-{cj.name}"] = round(float(err), 4)
-        epi = np.concatenate(epi)
-        epi_all.append(epi)
-        R = cj.R @ ci.R.T
-        baseline = float(np.linalg.norm(ci.centre - cj.centre))
-        pair_reports.append(
-            {
-                "cameras": [ci.name, cj.name],
-                "views": len(pr["views"]),
-                "rms_px": round(pr["rms"], 4),
-                "epipolar_mean_px": round(float(epi.mean()), 4),
-                "epipolar_rms_px": round(float(np.sqrt(np.mean(epi**2))), 4),
-                "baseline_m": round(baseline, 5),
-                "baseline_squares": round(baseline / board.square, 4),
-                "rotation_deg": round(_angle_deg(R), 3),
-                "relabelled_views": pr["relabelled"],
-            }
-        )
+    n_cams = len(rig.cameras)
+    for i in range(n_cams):
+        for j in range(i + 1, n_cams):
+            pair = _pair_report(views, board, fit, rig, bundle_fit, i, j, per_view)
+            if pair is not None:
+                epi_all.append(pair.pop("epipolar"))
+                pair_reports.append(pair)
     scores = {v: max(errs.values()) for v, errs in per_view.items() if errs}
     median = float(np.median(list(scores.values())))
     ranked = sorted(scores, key=lambda v: -scores[v])
     epi_all = np.concatenate(epi_all)
     report: dict[str, Any] = {
         "board": board_to_dict(board),
+        "method": "joint" if joint else "pairwise",
         "cameras": cameras,
         "pairs": pair_reports,
         "rms_px": round(float(np.sqrt(np.concatenate(all_sq).mean())), 4),
@@ -118,11 +109,14 @@ def _report(
         "world": rig.world if options.world_view is None else f"custom (board in view {options.world_view}, z up)",
         "views": {
             "used": views.n_views,
+            "relabelled": relabelled,  # chessboard detections numbered from the other end, turned to agree
             "ranked": [
                 {
                     "view": views.view_names[v],
                     "error_px": round(scores[v], 4),
-                    "outlier": bool(scores[v] > max(2.5 * median, median + 0.25)),
+                    "outlier": bool(
+                        scores[v] > max(3 * median, median + 0.3)
+                    ),  # one board pose per view for every camera: a wider margin than per-camera fits
                 }
                 for v in ranked
             ],
@@ -133,6 +127,48 @@ def _report(
     report["verdict"] = verdict
     report["reasons"] = reasons
     return report
+
+
+def _pair_report(views: ViewSet, board: Board, fit: ViewFit, rig: Rig, bundle_fit: BundleResult, i: int, j: int,
+                 per_view: dict[int, dict[str, float]]) -> dict[str, Any] | None:  # fmt: skip
+    """One pair of cameras over the views both saw: residuals, epipolar error, baseline and rotation; None if they share none."""
+    ci, cj = rig.cameras[i], rig.cameras[j]
+    shared, epi, sq = [], [], []
+    for v in range(views.n_views):
+        a, b = fit.detections[v][i], fit.detections[v][j]
+        common = _common(a, b) if a is not None and b is not None else None
+        if common is None:
+            continue
+        shared.append(v)
+        epi.append(epipolar_errors(ci, cj, common[0].corners, common[1].corners))
+        e2 = np.concatenate([np.sum(fit.residuals(v, i) ** 2, axis=1), np.sum(fit.residuals(v, j) ** 2, axis=1)])
+        per_view[v][f"stereo {ci.name}-{cj.name}"] = round(float(np.sqrt(e2.mean())), 4)
+        sq.append(e2)
+    if not shared:
+        return None
+    epi = np.concatenate(epi)
+    baseline = float(np.linalg.norm(ci.centre - cj.centre))
+    out = {
+        "cameras": [ci.name, cj.name],
+        "views": len(shared),
+        "rms_px": round(float(np.sqrt(np.concatenate(sq).mean())), 4),
+        "epipolar_mean_px": round(float(epi.mean()), 4),
+        "epipolar_rms_px": round(float(np.sqrt(np.mean(epi**2))), 4),
+        "baseline_m": round(baseline, 6),
+        "baseline_squares": round(baseline / board.square, 4),
+        "rotation_deg": round(_angle_deg(cj.R @ ci.R.T), 3),
+        "epipolar": epi,
+    }
+    if bundle_fit.covariance is not None:  # in the fit's own frame (camera 0's): the baseline does not depend on the world chosen
+
+        def length(cam_poses: np.ndarray) -> float:
+            centres = [-cv2.Rodrigues(p[:3])[0].T @ p[3:] for p in cam_poses[[i, j]]]
+            return float(np.linalg.norm(centres[0] - centres[1]))
+
+        sd = bundle_fit.sd_of(length)
+        out["baseline_sd_m"] = round(sd, 7)
+        out["baseline_sd_pct"] = round(100 * sd / baseline, 4)
+    return out
 
 
 def format_report(report: dict[str, Any]) -> str:
@@ -147,7 +183,8 @@ def format_report(report: dict[str, Any]) -> str:
         lines.append(
             f"{p['cameras'][0]}-{p['cameras'][1]}: stereo RMS {p['rms_px']:.3f} px over "
             f"{p['views']} views, epipolar error mean {p['epipolar_mean_px']:.3f} px, "
-            f"baseline {1000 * p['baseline_m']:.1f} mm ({p['baseline_squares']:.2f} squares), rotation {p['rotation_deg']:.2f} deg"
+            f"baseline {1000 * p['baseline_m']:.1f}{_plus_minus(1000 * p.get('baseline_sd_m', 0.0))} mm ({p['baseline_squares']:.2f} squares), "
+            f"rotation {p['rotation_deg']:.2f} deg"
         )
     worst = report["views"]["ranked"][:3]
     lines.append("worst views: " + ", ".join(f"{w['view']} {w['error_px']:.3f} px{' (outlier)' if w['outlier'] else ''}" for w in worst))
@@ -159,6 +196,10 @@ def format_report(report: dict[str, Any]) -> str:
     if verdict == "redo":
         lines.append("what to do: see 'Calibrating two webcams' in the README (steady board, flat print, all of the image covered)")
     return "\n".join(lines)
+
+
+def _plus_minus(sd: float) -> str:
+    return f" +-{sd:.1f}" if sd >= 0.05 else f" +-{sd:.2f}" if sd > 0 else ""
 
 
 def save_report(report: dict[str, Any], path: str | Path) -> None:

@@ -1,9 +1,10 @@
-"""Solving the rig from board views: intrinsics per camera, then every camera's pose.
+"""Solving the rig from board views: starts per camera and per pair, then one joint fit of everything.
 
-Intrinsics per camera (``cv2.calibrateCamera``), then the pose of every
-other camera relative to the first (``cv2.stereoCalibrate`` with the
-intrinsics fixed, optionally a joint refinement). More than two cameras are
-chained pairwise along the pairs that share most views. The views come from
+The start: intrinsics per camera (``cv2.calibrateCamera``), the pose of every
+other camera relative to the first through the pairs that share most views
+(``cv2.stereoCalibrate`` with the intrinsics fixed), chessboard labels made to
+agree between cameras, and every board pose through the first camera that saw
+it. Then ``bundle.py`` refines all of it together. The views come from
 ``views.py``; the report on the result from ``report.py``.
 """
 
@@ -17,10 +18,10 @@ import cv2
 import numpy as np
 
 from ..camera import Camera, Rig
-from ..console import warn
 from ..errors import StereotrackError
+from . import bundle
 from .boards import MIN_CORNERS, Board, Detection, board_to_dict, diagnose, flipped
-from .measures import CalibrationOptions, Intrinsics, _angle_deg, _common, _points, _pose
+from .measures import CalibrationOptions, Intrinsics, ViewFit, _angle_deg, _common, _points, _pose
 from .report import _report
 from .views import MIN_VIEWS, RECOMMENDED_VIEWS, ViewSet
 
@@ -32,6 +33,7 @@ class Calibration:
     rig: Rig
     report: dict[str, Any]
     views: ViewSet  # the views used (after any dropped)
+    fit: ViewFit  # per view: detections, reprojected corners, board pose
 
 
 def calibrate_intrinsics(
@@ -180,50 +182,30 @@ def _check_detections(views: ViewSet, board: Board) -> None:
 def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -> Calibration:
     names = views.camera_names
     n_cams = len(names)
-    if n_cams < 2:
-        raise StereotrackError("calibration needs at least 2 cameras")
-    _check_detections(views, board)
-    flags = options.flags()
-    dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
+    start = starting_point(views, board, options)
+    dets, intr, relabelled = start.detections, start.intrinsics, start.relabelled
 
-    intr: dict[int, Intrinsics] = {}
+    # Then all of it at once, unless asked for the starts only (to compare).
+    fit = bundle.refine(start.corners, n_cams, views.n_views, start.model, *start.x) if options.joint else start.as_result()
+    cams = []
     for c in range(n_cams):
-        vs = views.seen_by(c)
-        rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
-        intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
-
-    shared = {}
-    for i in range(n_cams):
-        for j in range(i + 1, n_cams):
-            shared[(i, j)] = _shared_views(views, board, i, j)
-    edges = _spanning_tree(n_cams, shared, names)
-
-    R_world = {0: np.eye(3)}
-    t_world = {0: np.zeros(3)}
-    pairs = []
-    refine = options.refine and n_cams == 2
-    if options.refine and not refine:
-        warn("--refine is done for two cameras only; with more, each pair keeps the per-camera intrinsics")
-    for p, c in edges:
-        vs = shared[(min(p, c), max(p, c))]
-        relabelled = _make_labels_consistent(board, dets, vs, p, c, intr)
-        rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC)
-        if refine:
-            f = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_USE_EXTRINSIC_GUESS | flags
-            rms, Kp, dp, Kc, dc, R, T, per_view = _stereo(board, dets, vs, p, c, intr, views.image_sizes, f, R, T)
-            intr[p] = replace(intr[p], K=Kp, dist=dp)
-            intr[c] = replace(intr[c], K=Kc, dist=dc)
-        R_world[c] = R @ R_world[p]
-        t_world[c] = R @ t_world[p] + T
-        pairs.append({"p": p, "c": c, "views": vs, "rms": rms, "per_view": per_view.max(axis=1), "relabelled": relabelled})
-
-    cams = [Camera(names[c], tuple(views.image_sizes[c]), intr[c].K, intr[c].dist, R_world[c], t_world[c]) for c in range(n_cams)]
+        fx, fy, cx, cy = fit.intrinsics[c, :4]
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        R = cv2.Rodrigues(fit.cam_poses[c, :3])[0]
+        cams.append(
+            Camera(
+                names[c], tuple(views.image_sizes[c]), K, fit.intrinsics[c, 4 : 4 + options.lens_model().n_dist], R, fit.cam_poses[c, 3:]
+            )
+        )
+    boards_R = np.array([cv2.Rodrigues(b[:3])[0] for b in fit.board_poses])
+    boards_t = fit.board_poses[:, 3:].copy()
     world = names[0]
     if options.world_view is not None:
-        cams = _world_from_view(views, board, dets, cams, options.world_view)
+        cams, boards_R, boards_t = _world_from_view(views, board, dets, cams, boards_R, boards_t, options.world_view)
         world = "custom"
     rig = Rig(tuple(cams), world=world)
-    report = _report(views, board, dets, rig, intr, pairs, options)
+    view_fit = _view_fit(board, dets, fit, boards_R, boards_t)
+    report = _report(views, board, view_fit, rig, fit, intr, relabelled, options)
     quality = {
         "rms_px": report["rms_px"],
         "per_camera_rms_px": {n: report["cameras"][n]["rms_px"] for n in names},
@@ -231,11 +213,123 @@ def _calibrate_once(views: ViewSet, board: Board, options: CalibrationOptions) -
         "views_used": views.n_views,
         "board": board_to_dict(board),
         "verdict": report["verdict"],
+        "method": "joint" if options.joint else "pairwise",
+        "baselines": [
+            {"cameras": p["cameras"], "m": p["baseline_m"], "sd_m": p["baseline_sd_m"]} for p in report["pairs"] if "baseline_sd_m" in p
+        ],
     }
-    return Calibration(Rig(rig.cameras, world=world, quality=quality), report, views)
+    return Calibration(Rig(rig.cameras, world=world, quality=quality), report, views, view_fit)
 
 
-def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], view_name: str) -> list[Camera]:
+def _labels_agree_with_poses(board: Board, dets, intr: dict[int, Intrinsics], R_world: dict[int, np.ndarray]) -> int:
+    """Chessboards numbered from the opposite end in one camera of a view, also between cameras that
+    are not linked directly: the labelling whose board rotation agrees with the view's first camera wins."""
+    if board.type != "chessboard":
+        return 0
+    changed = 0
+    for row in dets:
+        seen = [c for c, d in enumerate(row) if d is not None]
+        if len(seen) < 2:
+            continue
+        ref = seen[0]
+        R_ref = R_world[ref].T @ _pose(board, row[ref], intr[ref].K, intr[ref].dist)[0]  # board -> world
+        for c in seen[1:]:
+            want = R_world[c] @ R_ref
+            as_is = _angle_deg(_pose(board, row[c], intr[c].K, intr[c].dist)[0] @ want.T)
+            turned = _angle_deg(_pose(board, flipped(board, row[c]), intr[c].K, intr[c].dist)[0] @ want.T)
+            if turned < as_is:
+                row[c] = flipped(board, row[c])
+                changed += 1
+    return changed
+
+
+@dataclass(frozen=True, eq=False)
+class Start:
+    """The joint fit's starting point: per-camera intrinsics, chained poses, board poses from one camera each."""
+
+    corners: bundle.Corners
+    x: tuple[np.ndarray, np.ndarray, np.ndarray]  # intrinsics (cameras x 12), camera poses, board poses
+    model: bundle.LensModel
+    detections: list[list[Detection | None]]  # chessboards relabelled to agree between cameras
+    intrinsics: dict[int, Intrinsics]  # each camera calibrated alone
+    relabelled: int
+
+    def as_result(self) -> bundle.BundleResult:
+        """The starts as they are (no joint fit), with their residuals, to compare."""
+        problem = bundle.Problem(self.corners, len(self.x[0]), len(self.x[2]), self.model, self.x[0])
+        residuals = problem.residuals(problem.pack(*self.x)).reshape(-1, 2)
+        return bundle.BundleResult(*self.x, residuals, None, problem)
+
+
+def starting_point(views: ViewSet, board: Board, options: CalibrationOptions) -> Start:
+    """Each camera alone (``calibrateCamera``), then each camera's pose through the pairs that share most
+    views (``stereoCalibrate``, intrinsics fixed), then every board pose through the first camera that saw it."""
+    names = views.camera_names
+    n_cams = len(names)
+    if n_cams < 2:
+        raise StereotrackError("calibration needs at least 2 cameras")
+    _check_detections(views, board)
+    # The rational model starts from the standard one (k4..k6 = 0): fitted from scratch, its numerator and
+    # denominator grow together along a nearly flat valley (k's in the thousands; at the limit the focal
+    # length trades with k1 / k4), and the joint fit then wandered for minutes to focal lengths 58 % off.
+    flags = options.flags() & ~cv2.CALIB_RATIONAL_MODEL
+    dets = [list(row) for row in views.detections]  # working copy: chessboard labels may be flipped
+    intr: dict[int, Intrinsics] = {}
+    for c in range(n_cams):
+        vs = views.seen_by(c)
+        rms, K, dist, _, std = calibrate_intrinsics(board, [dets[v][c] for v in vs], views.image_sizes[c], flags)
+        intr[c] = Intrinsics(K, dist, rms, float(max(std[0], std[1])), vs)  # with a fixed aspect ratio only fy is free
+    shared = {(i, j): _shared_views(views, board, i, j) for i in range(n_cams) for j in range(i + 1, n_cams)}
+    R_world = {0: np.eye(3)}
+    t_world = {0: np.zeros(3)}
+    relabelled = 0
+    for p, c in _spanning_tree(n_cams, shared, names):
+        vs = shared[(min(p, c), max(p, c))]
+        relabelled += _make_labels_consistent(board, dets, vs, p, c, intr)
+        _, _, _, _, _, R, T, _ = _stereo(board, dets, vs, p, c, intr, views.image_sizes, cv2.CALIB_FIX_INTRINSIC | flags)
+        R_world[c] = R @ R_world[p]
+        t_world[c] = R @ t_world[p] + T
+    relabelled += _labels_agree_with_poses(board, dets, intr, R_world)
+    corners, x = _starting_unknowns(board, dets, intr, R_world, t_world)
+    return Start(corners, x, options.lens_model(), dets, intr, relabelled)
+
+
+def _starting_unknowns(board: Board, dets, intr: dict[int, Intrinsics], R_world, t_world):
+    n_cams = len(intr)
+    intrinsics = np.zeros((n_cams, bundle.N_INTR))
+    for c in range(n_cams):
+        K, d = intr[c].K, intr[c].dist
+        intrinsics[c, :4] = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+        intrinsics[c, 4 : 4 + min(8, len(d))] = d[:8]  # k1 k2 p1 p2 k3 (k4 k5 k6)
+    cam_poses = np.array([np.concatenate([cv2.Rodrigues(R_world[c])[0].ravel(), t_world[c]]) for c in range(n_cams)])
+    board_poses, view, cam, obj, px = [], [], [], [], []
+    points = board.object_points()
+    for v, row in enumerate(dets):
+        ref = next(c for c, d in enumerate(row) if d is not None)  # board -> world through the first camera that saw it
+        Rb, tb = _pose(board, row[ref], intr[ref].K, intr[ref].dist)
+        R = R_world[ref].T @ Rb
+        board_poses.append(np.concatenate([cv2.Rodrigues(R)[0].ravel(), R_world[ref].T @ (tb - t_world[ref])]))
+        for c, d in enumerate(row):
+            if d is not None:
+                view.append(np.full(len(d), v))
+                cam.append(np.full(len(d), c))
+                obj.append(points[d.ids])
+                px.append(d.corners)
+    corners = bundle.Corners(np.concatenate(view), np.concatenate(cam), np.concatenate(obj), np.concatenate(px))
+    return corners, (intrinsics, cam_poses, np.array(board_poses))
+
+
+def _view_fit(board: Board, dets, fit: bundle.BundleResult, boards_R: np.ndarray, boards_t: np.ndarray) -> ViewFit:
+    corners = fit.problem.corners
+    reprojected = [[None] * len(row) for row in dets]
+    for v, c, rows in fit.problem.blocks:
+        reprojected[v][c] = corners.px[rows] + fit.residuals[rows]
+    return ViewFit(tuple(map(tuple, dets)), tuple(map(tuple, reprojected)), boards_R, boards_t)
+
+
+def _world_from_view(
+    views: ViewSet, board: Board, dets, cams: list[Camera], boards_R: np.ndarray, boards_t: np.ndarray, view_name: str
+) -> tuple[list[Camera], np.ndarray, np.ndarray]:
     """Re-express the rig in the frame of the board as seen in one view: origin at the board's
     outer corner, x along its rows, z up out of the printed face (towards the cameras)."""
     if view_name not in views.view_names:
@@ -250,14 +344,8 @@ def _world_from_view(views: ViewSet, board: Board, dets, cams: list[Camera], vie
             f"--world-view {view_name!r}: the board is seen by {len(seen)} camera(s) in that view; choose a view seen by two or more"
             + (f", e.g. {', '.join(both[:5])}" if both else "")
         )
-    c0 = seen[0]  # the first camera that sees the board in that view
-    Rb, tb = _pose(board, dets[v][c0], cams[c0].K, cams[c0].dist)  # board -> camera c0
     flip = np.diag([1.0, -1.0, -1.0])  # board z points into the print; the world's z points out of it
-    R_bw = cams[c0].R.T @ Rb @ flip  # world' -> old world rotation
-    t_bw = cams[c0].R.T @ (tb - cams[c0].t)  # world' origin in the old world
-    out = []
-    for cam in cams:
-        R = cam.R @ R_bw
-        t = cam.R @ t_bw + cam.t
-        out.append(replace(cam, R=R, t=t))
-    return out
+    R_bw = boards_R[v] @ flip  # world' -> old world rotation: the fitted board pose of that view
+    t_bw = boards_t[v]  # world' origin in the old world
+    out = [replace(cam, R=cam.R @ R_bw, t=cam.R @ t_bw + cam.t) for cam in cams]
+    return out, np.einsum("ji,vjk->vik", R_bw, boards_R), (boards_t - t_bw) @ R_bw

@@ -1,14 +1,18 @@
 """Calibration views: one image per camera for each moment the board was held still.
 
-Image folders are matched by file name, frames are sampled from a recording,
-or taken from live frame pairs; the board is detected in every image.
+Image folders are matched by exact file name (for glob patterns, by the part
+the wildcard matched), frames are sampled from a recording, or taken from
+live frame pairs; the board is detected in every image. The images are kept
+only when asked for (to draw or log what the calibration saw).
 """
 
 from __future__ import annotations
 
 import glob
 import math
-from collections.abc import Iterable, Sequence
+import os
+import re
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -18,7 +22,7 @@ import numpy as np
 
 from ..console import Progress, quiet_native_stderr, warn
 from ..errors import StereotrackError
-from .boards import MIN_CORNERS, Board, BoardDetector, Detection, flipped
+from .boards import MIN_CORNERS, Board, BoardDetector, Detection, flipped, to_grey
 
 MIN_VIEWS = 5  # fewer views than this cannot pin down focal length, centre and distortion
 
@@ -41,6 +45,7 @@ class ViewSet:
     view_names: tuple[str, ...]
     detections: tuple[tuple[Detection | None, ...], ...]
     samples: tuple[tuple[np.ndarray, ...], ...] = field(default=())  # a few raw images per camera, for diagnosis
+    images: tuple[tuple[np.ndarray, ...], ...] = field(default=())  # grey image per view and camera, when kept
 
     @property
     def n_views(self) -> int:
@@ -52,19 +57,12 @@ class ViewSet:
     def without(self, names: Iterable[str]) -> ViewSet:
         drop = set(names)
         keep = [v for v, n in enumerate(self.view_names) if n not in drop]
-        return replace(self, view_names=tuple(self.view_names[v] for v in keep), detections=tuple(self.detections[v] for v in keep))
-
-
-def _view_key(stems: list[str]) -> list[str]:
-    """Names with the part common to the whole folder cut off the front (left01 -> 01, right01 -> 01)."""
-    if len(stems) < 2:
-        return stems
-    prefix = stems[0]
-    for s in stems[1:]:
-        while not s.startswith(prefix):
-            prefix = prefix[:-1]
-    prefix = prefix.rstrip("0123456789")  # never cut into a number: left01..left09 -> 01..09
-    return [s[len(prefix) :] or s for s in stems]
+        return replace(
+            self,
+            view_names=tuple(self.view_names[v] for v in keep),
+            detections=tuple(self.detections[v] for v in keep),
+            images=tuple(self.images[v] for v in keep) if self.images else (),
+        )
 
 
 def _list_images(source: str) -> list[Path]:
@@ -80,43 +78,69 @@ def _list_images(source: str) -> list[Path]:
     return files
 
 
-def _trailing_number(stems: list[str]) -> list[str]:
-    """left01 -> 1, cam1_0007 -> 7 (names without a trailing number keep their stem)."""
-    out = []
-    for stem in stems:
-        digits = len(stem) - len(stem.rstrip("0123456789"))
-        out.append(str(int(stem[-digits:])) if digits else stem)
-    return out
+def view_name(source: str, path: Path) -> str:
+    """The name that pairs an image with the other cameras' images of the same view.
+
+    In a folder it is the file name without its extension (cam0/001.png -> 001);
+    for a glob pattern it is the text the wildcards matched (left*.jpg: left01.jpg -> 01).
+    """
+    if Path(source).is_dir() or not glob.has_magic(source):
+        return path.stem
+    found = _wildcards(os.path.normpath(source)).match(os.path.normpath(str(path)))
+    return "".join(found.groups()) if found else path.stem
+
+
+def _wildcards(pattern: str) -> re.Pattern:
+    """A glob pattern as a regular expression with one group per wildcard (*, ?, [...])."""
+    out, i = [], 0
+    while i < len(pattern):
+        ch = pattern[i]
+        end = pattern.find("]", i + 2) if ch == "[" else -1
+        if ch == "*":
+            out.append("(.*)")
+        elif ch == "?":
+            out.append("(.)")
+        elif end > 0:  # a set such as [0-9] or [!a]
+            body = pattern[i + 1 : end]
+            out.append("([" + ("^" + body[1:] if body.startswith("!") else body) + "])")
+            i = end
+        else:
+            out.append(re.escape(ch))
+        i += 1
+    return re.compile("".join(out) + r"\Z")
 
 
 def match_image_files(sources: Sequence[str]) -> tuple[list[str], list[list[Path]]]:
-    """Image files matched across cameras by name: (view names, files per view, one per camera).
+    """Image files matched across cameras by exact name: (view names, files per view, one per camera).
 
-    Three ways to match are tried (same name; name without the folder's common
-    prefix, left01 <-> right01; same trailing number) and the one that pairs
-    the most images wins.
+    Only equal names pair (see ``view_name``): 01.jpg never pairs with r1.jpg.
+    Images without a partner are skipped with a warning; no pair at all is an error.
     """
-    per_cam = [_list_images(s) for s in sources]
-    best: tuple[list[str], list[dict[str, Path]]] | None = None
-    for keys_of in (lambda stems: stems, _view_key, _trailing_number):
-        keyed = []
-        for files in per_cam:
-            keys = keys_of([f.stem for f in files])
-            keyed.append(dict(zip(keys, files)))
-        common = sorted(set(keyed[0]).intersection(*keyed[1:]))
-        if best is None or len(common) > len(best[0]):
-            best = (common, keyed)
-    common, keyed = best
+    keyed: list[dict[str, Path]] = []
+    for source in sources:
+        named: dict[str, Path] = {}
+        for f in _list_images(source):
+            name = view_name(source, f)
+            if name in named:
+                raise StereotrackError(
+                    f"{source}: {named[name].name} and {f.name} both name view {name!r}; keep one image per view and camera"
+                )
+            named[name] = f
+        keyed.append(named)
+    common = sorted(set(keyed[0]).intersection(*keyed[1:]))
     if not common:
-        examples = ", ".join(f"{files[0].name}" for files in per_cam)
+        examples = " and ".join(f"{next(iter(k.values())).name} in {s}" for s, k in zip(sources, keyed))
         raise StereotrackError(
-            f"no image names match between {' and '.join(sources)} (first files: {examples}); "
-            f"name the images of one view alike, e.g. cam0/001.png and cam1/001.png, or left01.jpg and right01.jpg"
+            f"no image names match between {' and '.join(sources)} (e.g. {examples}); images of one view must have the same name "
+            f"for every camera (cam0/001.png and cam1/001.png), or give glob patterns whose wildcard part matches "
+            f"(--images 'shots/left*.jpg' 'shots/right*.jpg' pairs left01.jpg with right01.jpg)"
         )
     for source, k in zip(sources, keyed):
         alone = sorted(set(k) - set(common))
         if alone:
-            warn(f"{source}: {len(alone)} image(s) have no partner in the other folders and are skipped (e.g. {k[alone[0]].name})")
+            warn(
+                f"{source}: {len(alone)} image(s) have no partner with the same name in the other folders and are skipped (e.g. {k[alone[0]].name})"
+            )
     return common, [[k[name] for k in keyed] for name in common]
 
 
@@ -139,8 +163,12 @@ def views_from_images(
     camera_names: Sequence[str] | None = None,
     subpix_window: int | None = None,
     progress: bool = True,
+    keep_images: bool = False,
 ) -> ViewSet:
-    """Detect the board in image folders (or glob patterns), one per camera, matched by file name."""
+    """Detect the board in image folders (or glob patterns), one per camera, matched by file name.
+
+    ``keep_images``: keep the grey images in the ViewSet (to draw or log the views afterwards).
+    """
     if len(sources) < 2:
         raise StereotrackError("give one image folder per camera, at least two (e.g. --images left/ right/)")
     names = list(camera_names) if camera_names else [f"cam{i}" for i in range(len(sources))]
@@ -149,10 +177,10 @@ def views_from_images(
     sizes: list[tuple[int, int] | None] = [None] * len(sources)
     first_file: list[Path | None] = [None] * len(sources)
     samples: list[list[np.ndarray]] = [[] for _ in sources]
-    detections = []
+    detections, images = [], []
     bar = Progress(len(view_names), "detecting the board", "views", enabled=progress)
     for view in files:
-        row = []
+        row, kept = [], []
         for c, path in enumerate(view):
             img = _read_grey(path)
             size = (img.shape[1], img.shape[0])
@@ -167,10 +195,13 @@ def views_from_images(
             if det is None and len(samples[c]) < _SAMPLES_KEPT:
                 samples[c].append(img)
             row.append(det)
+            kept.append(img)
         detections.append(tuple(row))
+        if keep_images:
+            images.append(tuple(kept))
         bar.update(1, extra=_seen_summary(names, detections))
     bar.close()
-    return ViewSet(tuple(names), tuple(sizes), tuple(view_names), tuple(detections), tuple(tuple(s) for s in samples))
+    return ViewSet(tuple(names), tuple(sizes), tuple(view_names), tuple(detections), tuple(tuple(s) for s in samples), tuple(images))
 
 
 def _seen_summary(names: Sequence[str], detections: Sequence[Sequence[Detection | None]]) -> str:
@@ -187,19 +218,24 @@ def _mean_shift(a: Detection, b: Detection) -> float:
     return float(np.linalg.norm(a.corners[ia] - b.corners[ib], axis=1).mean())
 
 
-def coverage(corners: Iterable[np.ndarray], image_size: tuple[int, int], cells: int = 8) -> float:
-    """Share of the image's grid cells (``cells`` across) that hold at least one board corner."""
+def coverage_grid(corners: Iterable[np.ndarray], image_size: tuple[int, int], cells: int = 8) -> np.ndarray:
+    """How many board corners fell in each cell of a grid over the image (``cells`` across): the coverage heat-map."""
     w, h = image_size
     nx = cells
     ny = max(1, round(cells * h / w))
-    hit = np.zeros((ny, nx), bool)
+    counts = np.zeros((ny, nx), int)
     for pts in corners:
         if len(pts) == 0:
             continue
         ix = np.clip((pts[:, 0] / w * nx).astype(int), 0, nx - 1)
         iy = np.clip((pts[:, 1] / h * ny).astype(int), 0, ny - 1)
-        hit[iy, ix] = True
-    return float(hit.mean())
+        np.add.at(counts, (iy, ix), 1)
+    return counts
+
+
+def coverage(corners: Iterable[np.ndarray], image_size: tuple[int, int], cells: int = 8) -> float:
+    """Share of the image's grid cells (``cells`` across) that hold at least one board corner."""
+    return float((coverage_grid(corners, image_size, cells) > 0).mean())
 
 
 def views_from_frames(
@@ -214,6 +250,8 @@ def views_from_frames(
     progress: bool = True,
     label: str = "looking for board views",
     subpix_window: int | None = None,
+    keep_images: bool = False,
+    on_view: Callable[[ViewSet], None] | None = None,
 ) -> ViewSet:
     """Pick views from a stream of FramePairs (a recording or live cameras).
 
@@ -223,15 +261,32 @@ def views_from_frames(
     With ``steady_px`` the next frame pair must show the board within that
     many pixels (mean corner motion), so blurred, moving boards are skipped.
     Only every ``every``-th pair is examined (and the one after it).
+    Each view taken is announced on the progress line (a plain line when
+    stderr is not a terminal) and, with ``on_view``, passed on as the views
+    so far (a live viewer shows them as they come).
     """
     names = tuple(camera_names)
     detector = BoardDetector(board, subpix_window)
     taken: list[tuple[Detection | None, ...]] = []
     taken_names: list[str] = []
+    taken_images: list[tuple[np.ndarray, ...]] = []
     sizes: tuple[tuple[int, int], ...] | None = None
     samples: list[list[np.ndarray]] = [[] for _ in names]
-    pending: tuple[int, tuple[Detection | None, ...]] | None = None
+    pending: tuple[int, tuple[Detection | None, ...], tuple[np.ndarray, ...]] | None = None
     bar = Progress(total, label, "frames", enabled=progress)
+
+    def viewset() -> ViewSet:
+        return ViewSet(names, sizes, tuple(taken_names), tuple(taken), tuple(tuple(s) for s in samples), tuple(taken_images))
+
+    def take(index: int, dets: tuple[Detection | None, ...], images: tuple[np.ndarray, ...]) -> None:
+        taken.append(dets)
+        taken_names.append(f"frame{index:06d}")
+        if keep_images:
+            taken_images.append(tuple(to_grey(img) for img in images))
+        bar.say(_take_summary(names, taken, sizes))
+        if on_view is not None:
+            on_view(viewset())
+
     for pair in frames:
         bar.update(1)
         if sizes is None:
@@ -246,13 +301,11 @@ def views_from_frames(
             if d is None and len(samples[c]) < _SAMPLES_KEPT and pair.index % max(1, 10 * every) == 0:
                 samples[c].append(img)
         if pending is not None:
-            idx, cand = pending
+            idx, cand, cand_images = pending
             pending = None
             steady = all(a is None or (b is not None and _mean_shift(a, b) <= steady_px) for a, b in zip(cand, dets))
             if steady and _is_new(board, cand, taken, sizes, min_new):
-                taken.append(cand)
-                taken_names.append(f"frame{idx:06d}")
-                bar.update(0, extra=_take_summary(names, taken, sizes))
+                take(idx, cand, cand_images)
                 if len(taken) >= max_views:
                     break
             if pair.index % every != 0:
@@ -260,17 +313,15 @@ def views_from_frames(
         if sum(d is not None for d in dets) < min(2, len(dets)) or not _is_new(board, dets, taken, sizes, min_new):
             continue
         if steady_px is None:
-            taken.append(dets)
-            taken_names.append(f"frame{pair.index:06d}")
-            bar.update(0, extra=_take_summary(names, taken, sizes))
+            take(pair.index, dets, pair.images)
             if len(taken) >= max_views:
                 break
         else:
-            pending = (pair.index, dets)
+            pending = (pair.index, dets, pair.images)
     bar.close()
     if sizes is None:
         raise StereotrackError("the source gave no frames")
-    return ViewSet(names, sizes, tuple(taken_names), tuple(taken), tuple(tuple(s) for s in samples))
+    return viewset()
 
 
 def _is_new(board: Board, dets: Sequence[Detection | None], taken: Sequence[Sequence[Detection | None]], sizes, min_new: float) -> bool:

@@ -30,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..argtypes import number
 
     parser.add_argument("--dpi", type=number(50, 2400), default=300.0, help="printer resolution in dots per inch (default 300)")
+    parser.add_argument(
+        "--paper", choices=["A4", "letter", "A3"], help="refuse a board that does not fit on this paper (default: say which fits)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,28 +45,30 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.out, "--out", "PNG image", [args.board])
     board = load_board(args.board)
     page = printable(board, args.dpi)
+    paper_line = _check_paper(board, page, args.paper, args.dpi)
     # Written under a temporary name; it replaces --out only once the self-check found every corner.
     out = AtomicOutput(args.out, "--out")
     out.open("wb").close()
     try:
         write_png_with_dpi(out.temp, page.image, args.dpi)
-        ok = _self_check(out.temp, board, args.dpi, page, args.out)
+        found = _self_check(out.temp, board, args.dpi, page, args.out)
     except BaseException:
         out.abort()
         raise
-    if not ok:
+    if found != board.n_corners:
         out.abort()
         raise StereotrackError(
-            f"self-check failed: not every one of the {board.n_corners} corners was found in the image; use a larger --dpi or larger squares"
+            f"self-check failed: only {found} of {board.n_corners} corners were found in the image; use a larger --dpi or larger squares"
         )
     out.commit()
-    print(f"self-check: all {board.n_corners} corners found in the written image")
+    print(paper_line)
+    print(f"self-check: all {found} corners found in the written image")
     print("print at 100% scale (no 'fit to page') and check a few squares with a ruler")
     return 0
 
 
-def _self_check(path, board, dpi: float, page, shown) -> bool:
-    """Read the file back and find every corner, at a camera-like resolution."""
+def _self_check(path, board, dpi: float, page, shown) -> int:
+    """Read the file back and count the corners found, at a camera-like resolution."""
     import cv2
 
     from ..calibration.boards import BoardDetector
@@ -78,4 +83,31 @@ def _self_check(path, board, dpi: float, page, shown) -> bool:
         f"wrote {shown}: {img.shape[1]}x{img.shape[0]} px = {w_mm:.0f} x {h_mm:.0f} mm at {dpi:g} dpi; "
         f"{board.describe()}; one square prints as {1000 * page.square_printed_m:.2f} mm"
     )
-    return found == board.n_corners
+    return found
+
+
+def _check_paper(board, page, paper: str | None, dpi: float) -> str:
+    """Which paper the page fits (and how to turn it); refuse when it does not fit the paper asked for."""
+    from ..calibration.boards import PAPER_MM, largest_square_for, page_mm, paper_fit
+    from ..console import warn
+    from ..errors import StereotrackError
+
+    w, h = page_mm(page)
+    fits = {name: paper_fit((w, h), name) for name in PAPER_MM}
+    if paper is not None and not fits[paper]:
+        smaller = largest_square_for(board, paper, dpi)
+        other = next((name for name, how in fits.items() if how), None)
+        raise StereotrackError(
+            f"the board ({board.describe()}) needs a page of {w:.0f} x {h:.0f} mm, which does not fit on {paper}"
+            + (f" (squares of {1000 * smaller:.0f} mm or less do)" if smaller else "")
+            + (f"; it fits on {other}" if other else "")
+        )
+    if paper is not None:
+        return f"paper: fits on {paper} in {fits[paper]}" + (" (turn the page: print landscape)" if fits[paper] == "landscape" else "")
+    usable = [f"{name} ({how})" for name, how in fits.items() if how]
+    if not usable:
+        warn(f"the page is {w:.0f} x {h:.0f} mm: larger than A3; print it in parts or use smaller squares")
+        return "paper: larger than A3"
+    if not fits["A4"] and not fits["letter"]:
+        warn(f"the page is {w:.0f} x {h:.0f} mm: it does not fit on A4 or letter; print on {usable[0]} or use smaller squares")
+    return "paper: fits on " + ", ".join(usable)

@@ -5,7 +5,7 @@ same distortion as everywhere else) to the board plane and the board texture
 is sampled there, at 2 x 2 samples per pixel averaged (anti-aliasing), then
 mildly blurred and given sensor noise. Poses are drawn from a seeded
 ``numpy.random.Generator`` and kept only if the whole board (with its white
-quiet zone) is inside every camera's image.
+quiet zone) is inside every camera's image (or every camera of a group).
 """
 
 from __future__ import annotations
@@ -57,14 +57,16 @@ def random_board_poses(
     fill: tuple[float, float] = (0.35, 0.75),
     max_tilt_deg: float = 40.0,
     max_spin_deg: float = 25.0,
+    min_tilt_deg: float = 0.0,
     margin_px: float = 8.0,
     cameras: Sequence[int] | None = None,
 ) -> list[BoardPose]:
     """``n`` board poses fully visible in the given cameras (default: all).
 
     ``fill`` is the range of the board's width as a share of the image width;
-    the board faces the cameras, tilted up to ``max_tilt_deg`` and turned in
-    its plane up to ``max_spin_deg``.
+    the board faces the cameras, tilted by ``min_tilt_deg`` to ``max_tilt_deg``
+    (tilted views pin down the focal length) and turned in its plane up to
+    ``max_spin_deg``.
     """
     cams = [rig.cameras[i] for i in (range(len(rig)) if cameras is None else cameras)]
     centre = np.mean([c.centre for c in cams], axis=0)
@@ -91,7 +93,7 @@ def random_board_poses(
         base = np.column_stack([right, down, forward])
         tilt_axis = np.array([math.cos(a := rng.uniform(0, 2 * math.pi)), math.sin(a), 0.0])
         spin = _rotation([0, 0, 1], math.radians(rng.uniform(-max_spin_deg, max_spin_deg)))
-        tilt = _rotation(tilt_axis, math.radians(rng.uniform(0, max_tilt_deg)))
+        tilt = _rotation(tilt_axis, math.radians(rng.uniform(min_tilt_deg, max_tilt_deg)))
         R = base @ tilt @ spin
         pose = BoardPose(R, target - R @ mid)
         pts = pose.to_world(outline)
@@ -108,6 +110,69 @@ def random_board_poses(
             poses.append(pose)
     if len(poses) < n:
         raise ValueError(f"found only {len(poses)} of {n} board poses visible in every camera: use a smaller board or a closer rig")
+    return poses
+
+
+def calibration_rig(n_cams: int, rng: np.random.Generator, size: tuple[int, int] = (640, 480)) -> Rig:
+    """Webcams in a row 25 cm apart (20 cm for two), turned slightly towards each other, each with its own
+    focal length (58-68 degrees across), principal point off centre and barrel distortion: a rig to calibrate."""
+    from ..camera import intrinsics_from_fov, look_at
+
+    spacing = 0.2 if n_cams == 2 else 0.25
+    cams = []
+    for k in range(n_cams):
+        x = (k - (n_cams - 1) / 2) * spacing
+        K = intrinsics_from_fov(size[0], size[1], rng.uniform(58, 68))
+        K[1, 1] *= 1 + rng.uniform(-0.004, 0.004)
+        K[0, 2] += rng.uniform(-12, 12)
+        K[1, 2] += rng.uniform(-10, 10)
+        dist = np.array(
+            [rng.uniform(-0.25, -0.05), rng.uniform(0.0, 0.12), rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), rng.uniform(-0.05, 0.0)]
+        )
+        eye = (x, rng.uniform(-0.01, 0.01), rng.uniform(-0.01, 0.01))
+        target = (-0.3 * x + rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.03), 1.0)
+        R, t = look_at(eye, target)
+        cams.append(Camera(f"cam{k}", size, K, dist, R, t))
+    return Rig(tuple(cams))
+
+
+def lens_rig(lens: str, rng: np.random.Generator) -> Rig:
+    """Two webcams 20 cm apart with square pixels and off-centre principal points, to test lens models:
+    'ordinary' (59-65 degrees across, radial k1 k2 only: every lens model can describe it) or 'wide'
+    (87-93 degrees, rational distortion with k4 0.7-1.0, which only --rational describes)."""
+    from ..camera import intrinsics_from_fov, look_at
+
+    hfov = {"ordinary": 62.0, "wide": 90.0}[lens]
+    cams = []
+    for k, x in enumerate((-0.1, 0.1)):
+        K = intrinsics_from_fov(640, 480, hfov + rng.uniform(-3, 3))
+        K[0, 2] += rng.uniform(-12, 12)
+        K[1, 2] += rng.uniform(-10, 10)
+        R, t = look_at((x, 0.0, 0.0), (-0.3 * x, 0.0, 1.0))
+        if lens == "ordinary":
+            dist = [rng.uniform(-0.25, -0.05), rng.uniform(0.0, 0.12), 0.0, 0.0, 0.0]
+        else:
+            dist = [rng.uniform(0.3, 0.6), 0.05, 0.0, 0.0, 0.0, rng.uniform(0.7, 1.0), 0.15, 0.0]
+        cams.append(Camera(f"cam{k}", (640, 480), K, np.array(dist), R, t))
+    return Rig(tuple(cams))
+
+
+def poses_seen_by_pairs(rig: Rig, board: Board, n: int, rng: np.random.Generator, **pose_options) -> list[BoardPose]:
+    """``n`` board poses, each wholly in view of at least two cameras: with three or more cameras they cycle
+    through the neighbouring pairs and all cameras together (others may see the board too, or part of it).
+    ``pose_options`` go to ``random_board_poses``."""
+    k = len(rig)
+    groups = [(0, 1)] if k == 2 else [*((i, i + 1) for i in range(k - 1)), tuple(range(k))]
+    poses: list[BoardPose] = []
+    for attempt in range(20 * n):
+        if len(poses) == n:
+            break
+        try:
+            poses += random_board_poses(rig, board, 1, rng, cameras=groups[attempt % len(groups)], **pose_options)
+        except ValueError:  # this group cannot see the whole board at once here: the next one
+            continue
+    if len(poses) < n:
+        raise ValueError(f"found only {len(poses)} of {n} board poses seen whole by two cameras")
     return poses
 
 

@@ -101,6 +101,30 @@ def test_board_command_writes_and_checks(tmp_path):
     assert r.returncode == 2 and r.stderr.startswith("error: --dpi") and r.stderr.count("\n") == 1
 
 
+def test_board_command_says_which_paper_and_refuses_one_too_small(tmp_path):
+    def board_cli(yaml_path, *extra):
+        return subprocess.run(
+            [sys.executable, "-m", "stereotrack", "board", str(yaml_path), "--out", str(tmp_path / "b.png"), "--dpi", "150", *extra],
+            capture_output=True,
+            text=True,
+        )
+
+    # the repository's 7x5 ChArUco of 30 mm squares: 240 x 192 mm with its quiet zone and settings, A4 only turned
+    r = board_cli("calib/board.yaml", "--paper", "A4")
+    assert r.returncode == 0, r.stderr
+    assert "paper: fits on A4 in landscape (turn the page: print landscape)" in r.stdout
+    # a 10x7 chessboard of 30 mm squares is 300 mm of squares alone: not on A4 (297 mm, less the printer's margins)
+    (tmp_path / "big.yaml").write_text("type: chessboard\nsquares: [10, 7]\nsquare: 0.03\n")
+    (tmp_path / "b.png").unlink()
+    r = board_cli(tmp_path / "big.yaml", "--paper", "A4")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not (tmp_path / "b.png").exists()
+    assert "needs a page of 330 x 252 mm, which does not fit on A4 (squares of 23 mm or less do); it fits on A3" in r.stderr
+    r = board_cli(tmp_path / "big.yaml")  # no paper asked for: written, with a warning that says what it needs
+    assert r.returncode == 0 and "paper: fits on A3 (landscape)" in r.stdout
+    assert "does not fit on A4 or letter" in r.stderr
+    assert board_cli(tmp_path / "big.yaml", "--paper", "A3").returncode == 0
+
+
 @pytest.fixture(scope="module")
 def rendered():
     rig = small_rig()
