@@ -93,9 +93,27 @@ def run_learn(args) -> int:
         write_text_atomic(rec.folder / "meta.yaml", dump_yaml(meta))
     info(f"target {t.name!r}: hsv_min {list(t.hsv_min)}, hsv_max {list(t.hsv_max)}, radius {t.radius} m -> {path}")
     info(f"covers {100 * learned.roi_coverage:.0f}% of the region and {100 * learned.background_coverage:.2f}% of the rest of the image")
+    separates = _separation(image, t, _parse_roi(args.roi))
+    info(f"colour model: separates the ball from the rest of the range by {separates:.2f} (1: perfectly, 0: no better than the range)")
     if learned.background_coverage > 0.01:
         warn(
             f"the range also covers {100 * learned.background_coverage:.1f}% of the image outside the region: "
             "the tracker may chase background of that colour; pick a tighter region, improve the lighting, or edit hsv_min/hsv_max"
         )
     return 0
+
+
+def _separation(image, target, roi) -> float:
+    """How well the tracker's colour model (evidence/colour_model.py) tells the ball's pixels in the region from the
+    other pixels in the range, learnt from this one image."""
+    import numpy as np
+
+    from ..evidence.colour import target_mask, to_hsv
+    from ..evidence.colour_model import ColourModel, separation
+
+    hsv = to_hsv(image)
+    in_range = target_mask(hsv, target)
+    x, y, w, h = roi
+    ball = np.zeros(in_range.shape, np.uint8)
+    ball[y : y + h, x : x + w] = in_range[y : y + h, x : x + w]
+    return separation(ColourModel.from_region(target, hsv, ball).probability(hsv), ball, in_range)

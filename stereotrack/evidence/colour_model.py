@@ -70,6 +70,12 @@ class ColourModel:
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
         return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate)
 
+    @classmethod
+    def from_region(cls, target: Target, hsv: np.ndarray, ball: np.ndarray) -> ColourModel:
+        """Learnt from one image: the ball's colours under ``ball`` (uint8 mask), the background's everywhere else."""
+        ball = (ball > 0).astype(np.uint8)
+        return cls(_normalised(hs_histogram(hsv, ball)), _normalised(hs_histogram(hsv, 1 - ball)))
+
     def probability(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) per pixel, 0..255 (uint8)."""
         if self.background is None:
