@@ -99,6 +99,11 @@ def main(argv: list[str] | None = None) -> int:
 
     install()  # first: SIGINT/SIGTERM handled explicitly from here on, even if a script started us with SIGINT ignored
     try:
+        # The heavy libraries every command loads, while a signal is still only noted: a stop raised in the middle
+        # of numpy's or OpenCV's import breaks it (numpy reports a failed import of 'datetime', exit 1).
+        import cv2  # noqa: F401
+        import numpy  # noqa: F401
+
         act_on_pending()  # a signal while the package loaded (stereotrack/__init__.py) stops us here
         rc = _main(argv)
     except KeyboardInterrupt as exc:  # a stop signal outside a capture/tracking loop (see capture/signals.py)
