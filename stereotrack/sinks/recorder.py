@@ -41,13 +41,15 @@ class RecordingSink:
         max_bytes: int = 512 << 20,
         **writer_options: Any,
     ):
+        import av  # noqa: F401  (loaded here, on the command's thread: the writer thread imports nothing, and a stop
+        # signal that lands inside an import on the main thread cannot leave it waiting on the import lock)
+
         self.folder = Path(folder)
         self.camera_names = list(camera_names)
         self.fps = float(fps)
         self.rig = rig
         self.writer_options = writer_options
         self.codec = writer_options.get("codec", "mjpg")
-        import av  # noqa: F401  # loaded now: loading its libraries holds the GIL for a second, which would starve the cameras
 
         self.writer: RecordingWriter | None = None
         self.error: BaseException | None = None
