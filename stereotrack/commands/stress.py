@@ -340,7 +340,7 @@ def run_job(job: Job) -> dict:
     start = time.perf_counter()
     rendered = render_cached(spec, folder)
     out = {"category": job.category, "seed": job.seed, "rendered": rendered, "render_seconds": time.perf_counter() - start, "methods": {}}
-    from ..files import write_atomic
+    from ..files import write_text_atomic
 
     key = scene_key(spec) + "-" + code_key()
     for method in job.methods:
@@ -351,7 +351,7 @@ def run_job(job: Job) -> dict:
                 out["methods"][method] = saved["score"]
                 continue
         score = track_and_score(folder, method, spec.n_frames)
-        write_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
+        write_text_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
         out["methods"][method] = score
     return out
 

@@ -73,6 +73,7 @@ class Tracker:
         t0 = time.perf_counter()
         cams = self.rig.cameras
         balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
+        confirmed = balls.confirmed_only()
         # With colour models the range's mask is sharpened first (its integral image would be thrown away).
         cmasks = [
             camera_masks(cam.name, img, self.config.targets, integrals=self.colour_models is None) for cam, img in zip(cams, pair.images)
@@ -93,7 +94,7 @@ class Tracker:
                     s.min_blob_area,
                     fg,
                     (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                    self._colour_probability(t, j, cm, balls),
+                    self._colour_probability(t, j, cm, confirmed),
                 )
                 for j, (cam, cm, fg) in enumerate(zip(cams, cmasks, foreground))
             )
@@ -101,7 +102,6 @@ class Tracker:
         }
         t2 = time.perf_counter()
         timings["blobs"] = 1e3 * (t2 - t1)
-        confirmed = balls.confirmed_only()
         states = {t.name: self.populations[t.name].step(views[t.name], dt, confirmed) for t in self.config.targets}
         t3 = time.perf_counter()
         timings["particles"] = 1e3 * (t3 - t2)
@@ -147,7 +147,7 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _colour_probability(self, target, j: int, cm, balls: TrackedBalls) -> np.ndarray | None:
+    def _colour_probability(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
         """p(ball | colour) of camera j's pixels for ``target`` (None without colour models); then the model
         learns this frame, the ball's colours under the confirmed tracks of the target."""
         if self.colour_models is None:
@@ -155,7 +155,7 @@ class Tracker:
         model = self.colour_models[target.name][j]
         probability = model.probability(cm.hsv)
         cam = self.rig.cameras[j]
-        mine = balls.confirmed_only().of(target.name)
+        mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
         return probability
