@@ -34,10 +34,12 @@ import cv2
 import numpy as np
 
 from ..camera import Rig
+from ..console import warn
 from ..errors import StereotrackError
 from ..frames import CameraStats, FramePair, SourceStats
 from ..recording import decode_jpeg, encode_jpeg
 from .devices import CaptureSettings, VideoDevice, describe, open_device
+from .signals import stop_requested
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,7 +267,7 @@ class CameraPairSource:
     def _deliver(self, slot: int, stamp: float, frame: tuple) -> None:
         with self._cond:
             for timestamps, frames in self._pairer.push(slot, stamp, frame):
-                if self._span_reached or self._stop_requested:
+                if self._span_reached or self.stopping:
                     break
                 t = float(np.mean(timestamps))
                 self._first_time = t if self._first_time is None else self._first_time
@@ -301,9 +303,14 @@ class CameraPairSource:
     def __iter__(self) -> Iterator[FramePair]:
         return self
 
+    @property
+    def stopping(self) -> bool:
+        """Asked to stop (``request_stop``, or a stop signal in any StopOnSignals block: a signal always reaches it)."""
+        return self._stop_requested or self._closed or stop_requested()
+
     def __next__(self) -> FramePair:
         while True:
-            if self._stop_requested or self._closed:
+            if self.stopping:
                 raise StopIteration
             with self._cond:
                 item = self._queue.popleft() if self._queue else None
@@ -327,7 +334,7 @@ class CameraPairSource:
 
     def wait(self, timeout: float = 0.1) -> bool:
         """For consumers that take no pairs (``record``): wait a little; False once the source has ended."""
-        if self._stop_requested or self._closed:
+        if self.stopping:
             return False
         with self._cond:
             self._cond.wait(timeout)
@@ -335,7 +342,7 @@ class CameraPairSource:
             self._check()
         except StopIteration:
             return False
-        return not (self._stop_requested or self._span_reached)
+        return not (self.stopping or self._span_reached)
 
     def _check(self) -> None:
         """Raise a camera's or the recorder's error; StopIteration when the source has ended."""
@@ -388,8 +395,14 @@ class CameraPairSource:
         deadline = time.monotonic() + timeout
         for th in self._threads:
             # a file always returns from a grab (a webcam's driver may not): give it longer on a starved machine
-            th.join(max(0.0, deadline - time.monotonic() + (8.0 if getattr(th.device, "finite", False) else 0.0)))
-        self._decoder.shutdown(wait=True)
+            extra = 8.0 if getattr(th.device, "finite", False) else 0.0
+            th.join(max(0.0, deadline - time.monotonic() + extra))
+            if th.is_alive():
+                warn(
+                    f"camera {self.camera_names[th.slot]} ({describe(th.spec)}) did not stop within {timeout + extra:g} s "
+                    "(stuck in its driver); it is released when the program ends"
+                )
+        self._decoder.shutdown(wait=True, cancel_futures=True)  # a decode is one imdecode: bounded
 
     def __enter__(self) -> CameraPairSource:
         return self

@@ -10,15 +10,23 @@ first signal only asks the loop to stop: the loop ends after the frame in hand,
 sources stop, sinks are finalised. Setup before a loop runs inside the block
 too, so a signal during it ends the command as soon as its loop starts, with
 nothing half-written. A second signal interrupts at once.
+
+The handler never raises inside an ``import``: an exception there can leave the
+module half-imported or its import lock held for ever (another thread importing
+it then waits for ever). A stop that would raise there is noted and the signal
+sent again ``RETRY_SECONDS`` later, until it lands outside the import.
 """
 
 from __future__ import annotations
 
+import _thread
 import signal
 import threading
+import time
 from collections.abc import Callable
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+RETRY_SECONDS = 0.01  # a stop deferred because it came inside an import is sent again this much later
 
 
 class Interrupted(KeyboardInterrupt):
@@ -36,21 +44,55 @@ class Interrupted(KeyboardInterrupt):
 class _State:
     installed = False
     starting = False  # the command line is still loading: note a signal, act on it once main() runs
-    pending: str | None = None
+    pending: str | None = None  # a stop noted but not yet acted on (while starting, or inside an import)
+    retrying = False  # a thread will send the pending signal again
+    main_thread: int | None = None
     previous: dict = {}
     scopes: list[StopOnSignals] = []
 
 
 def _handle(signum, frame) -> None:
-    name = signal.Signals(signum).name
+    name = _State.pending or signal.Signals(signum).name  # a signal sent again is the stop that was deferred
     if _State.starting:
-        _State.pending = _State.pending or name
+        _State.pending = name
         return
-    if not _State.scopes or _State.scopes[-1].requested:
-        raise Interrupted(name)
-    for scope in list(_State.scopes):  # nested blocks (a command's and its loop's) all learn of it
-        if not scope.requested:
-            scope._request(name)
+    if _State.scopes and not _State.scopes[-1].requested:
+        _State.pending = None
+        for scope in list(_State.scopes):  # nested blocks (a command's and its loop's) all learn of it
+            if not scope.requested:
+                scope._request(name)
+        return
+    if _inside_import(frame):
+        _State.pending = name
+        _retry_later(signum)
+        return
+    _State.pending = None
+    raise Interrupted(name)
+
+
+def _inside_import(frame) -> bool:
+    """Whether the main thread is running an import (importlib's frames are on its stack)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib."):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _retry_later(signum: int) -> None:
+    """Send the signal to the main thread again in a moment. A bare thread (``_thread``, not ``threading``,
+    whose locks the interrupted code may hold); a real signal, so it also ends a blocking wait."""
+    if _State.retrying:
+        return
+    _State.retrying = True
+
+    def retry() -> None:
+        time.sleep(RETRY_SECONDS)
+        _State.retrying = False
+        if _State.pending is not None and _State.installed:
+            signal.pthread_kill(_State.main_thread, signum)
+
+    _thread.start_new_thread(retry, ())
 
 
 def install(starting: bool = False) -> bool:
@@ -66,6 +108,7 @@ def install(starting: bool = False) -> bool:
     for sig in STOP_SIGNALS:
         _State.previous[sig] = signal.signal(sig, _handle)
     _State.installed = True
+    _State.main_thread = threading.get_ident()
     return True
 
 
@@ -82,6 +125,7 @@ def uninstall() -> None:
         signal.signal(sig, handler)
     _State.previous = {}
     _State.installed = False
+    _State.pending = None
 
 
 def leave_to_parent() -> None:

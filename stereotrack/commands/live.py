@@ -197,6 +197,7 @@ def _live_session(args, specs, settings, rig, config, stopper):
     from ..capture.cameras import CameraPairSource
     from ..errors import StereotrackError
     from ..pipeline.assemble import make_tracker, open_sinks
+    from ..pipeline.run import close_all
     from ..recording import JPEG_QUALITY
     from ..sinks.recorder import RecordingSink, TrackedFramesSink
 
@@ -229,17 +230,21 @@ def _live_session(args, specs, settings, rig, config, stopper):
         args, rig, config, tracks_csv=out_csv, live=True, extra=extra, protect=[args.calib, args.config], hold=args.seconds is not None
     )
     viz = next((s for s in sinks if hasattr(s, "rrd_path")), None)
-    # queue_size=1: the tracker always gets the newest pair; latency cannot build up
-    source = CameraPairSource(
-        specs,
-        names,
-        settings,
-        rig=rig,
-        queue_size=1,
-        stall_timeout=args.stall_timeout,
-        recorder=recorder,
-        jpeg_quality=JPEG_QUALITY if recorder is not None and args.codec == "mjpg" else None,
-    )
+    try:
+        # queue_size=1: the tracker always gets the newest pair; latency cannot build up
+        source = CameraPairSource(
+            specs,
+            names,
+            settings,
+            rig=rig,
+            queue_size=1,
+            stall_timeout=args.stall_timeout,
+            recorder=recorder,
+            jpeg_quality=JPEG_QUALITY if recorder is not None and args.codec == "mjpg" else None,
+        )
+    except BaseException:
+        close_all(sinks)  # a camera that does not open: the sinks' threads and files end here, not at exit
+        raise
     stopper.add(source.request_stop)
     summary, latency = run_live(source, tracker, sinks, args.seconds, show=not args.quiet, recorder=recorder)
     return source, recorder, summary, latency, viz

@@ -11,6 +11,7 @@ and the live tracker's frames can be replayed exactly (``TrackedFramesSink``).
 from __future__ import annotations
 
 import threading
+import time
 from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,9 +19,12 @@ from typing import Any
 
 from ..camera import Rig
 from ..capture.cameras import CapturedPair
+from ..console import warn
 from ..errors import StereotrackError
 from ..frames import FramePair
 from ..recording import RecordingWriter
+
+STALL_SECONDS = 10.0  # close() gives up on a writer thread that wrote nothing for this long
 
 
 class RecordingSink:
@@ -166,14 +170,29 @@ class RecordingSink:
             self.writer = self._open((w, h))
         self.writer.write(pair.images, pair.timestamps)
 
-    def close(self) -> None:
-        """Write what is queued, then close the files (after the source has stopped)."""
+    def close(self, stall_seconds: float = STALL_SECONDS) -> None:
+        """Write what is queued, then close the files (after the source has stopped).
+
+        Waits as long as the writer makes progress; one that wrote nothing for ``stall_seconds``
+        (a disk that stopped answering) is left behind with one line: every row already in
+        frames.csv has its frames, so the folder opens as it is.
+        """
         with self._cond:
             self._closing = True
             self._cond.notify_all()
             thread = self._thread
         if thread is not None:
-            thread.join()
+            written, since = self.count, time.monotonic()
+            while thread.is_alive():
+                thread.join(0.2)
+                if self.count != written:
+                    written, since = self.count, time.monotonic()
+                elif time.monotonic() - since > stall_seconds:
+                    warn(
+                        f"recording into {self.folder}: the writer wrote nothing for {stall_seconds:g} s (disk not answering?); "
+                        f"stopped waiting with {len(self._queue)} pairs unwritten, the {self.count} written are kept"
+                    )
+                    return
         if self.writer is not None:
             self._write_marks()
             if self._marks_file is not None:
