@@ -158,9 +158,11 @@ class _CameraThread(threading.Thread):
                     break
                 stamp = clock()
                 # The device's own capture time (V4L2 buffer timestamp, on the same monotonic
-                # clock) is exact, while our stamp waits for the GIL: prefer it when plausible.
+                # clock) is exact, while our stamp waits for the GIL: prefer it when plausible
+                # (a file's due time always: a frame read late on a starved host keeps its own time).
                 device_time = self.device.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
-                if self.source.clock is time.monotonic and stamp - 1.0 < device_time <= stamp:
+                exact = getattr(self.device, "exact_time", False) or stamp - 1.0 < device_time
+                if self.source.clock is time.monotonic and exact and device_time <= stamp:
                     stamp = device_time
                 ok, image = self.device.retrieve()
                 if not ok or image is None:
@@ -258,6 +260,10 @@ class CameraPairSource:
         self._closed = False
         self._decoder = ThreadPoolExecutor(len(opened), thread_name_prefix="decode")
         self._started = clock()
+        now = time.monotonic()
+        for dev in opened:
+            if hasattr(dev, "start_at"):
+                dev.start_at(now)  # video files: frame k of each is due at one moment, however late a thread starts
         self._threads = [_CameraThread(self, i, dev, spec) for i, (dev, spec) in enumerate(zip(opened, specs))]
         for th in self._threads:
             th.start()

@@ -320,11 +320,15 @@ class VideoFileCamera:
     monotonic clock, like a webcam's buffer timestamp), and a frame more than
     ``BUFFERED`` periods late is skipped, as a camera's driver overwrites frames
     nobody took: two files played together stay in step however busy the host is.
+    Files of one source share their start (``start_at``), so frame k of each is due
+    at the same moment and only frames of one index can pair, whenever each thread
+    first ran; the stamp is the due time however late the frame is delivered.
     """
 
     BUFFERED = 2  # frames a webcam's driver holds (open_webcam asks for 2 buffers)
 
     finite = True  # its end is the end of the input, not an unplugged camera
+    exact_time = True  # CAP_PROP_POS_MSEC is the frame's due time on time.monotonic, however late it is read
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -346,6 +350,10 @@ class VideoFileCamera:
         if prop == cv2.CAP_PROP_POS_MSEC:
             return self._due * 1000.0  # when the frame was due: the capture time a camera would report
         return self._fps if prop == cv2.CAP_PROP_FPS else self._cap.get(prop)
+
+    def start_at(self, t: float) -> None:
+        """Frame 0 is due at ``t`` (time.monotonic); by default, when it is first grabbed."""
+        self._start = t
 
     def grab(self) -> bool:
         now = time.monotonic()

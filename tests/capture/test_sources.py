@@ -285,6 +285,36 @@ def test_video_files_play_at_their_rate_and_end_the_source(tmp_path):
     assert pairs[-1].time - pairs[0].time >= (len(pairs) - 1) * PERIOD * 0.8  # delivered at the file's rate
 
 
+class StarvedFile(VideoFileCamera):
+    """A video file camera whose thread gets no CPU for a while before some grabs (a host loaded many times over)."""
+
+    def __init__(self, path, stalls: dict[int, float]):
+        super().__init__(path)
+        self.stalls, self.grabs = stalls, 0
+
+    def grab(self) -> bool:
+        self.grabs += 1
+        time.sleep(self.stalls.get(self.grabs, 0.0))
+        return super().grab()
+
+
+def test_video_files_pair_only_frames_of_one_index_however_starved_their_threads(tmp_path):
+    """One thread starting 0.1 s late (3 periods) and one starved for 1.5 s mid-file: frames are skipped,
+    never paired with another moment of the other file."""
+    path = tmp_path / "clip.mkv"
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 2 * FPS, (32, 24))
+    for i in range(150):
+        w.write(np.full((24, 32, 3), i, np.uint8))  # the frame's index in every pixel
+    w.release()
+    cams = [StarvedFile(path, {12: 1.5}), StarvedFile(path, {1: 0.1})]
+    with CameraPairSource(cams, settings=CaptureSettings(None, None, None, None), queue_size=200) as src:
+        pairs = list(src)
+    indices = [tuple(int(img[0, 0, 0]) for img in p.images) for p in pairs]
+    assert len(pairs) >= 40, indices
+    assert all(a == b for a, b in indices), indices
+    assert sum(c.skipped for c in cams) > 0  # the stalls were felt
+
+
 def test_fewer_than_two_cameras_or_a_rig_of_another_size_is_refused():
     with pytest.raises(StereotrackError, match="at least two cameras"):
         CameraPairSource(["sim:dots"])
