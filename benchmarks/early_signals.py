@@ -6,7 +6,7 @@
 Each run starts the real command as a subprocess (``python -m stereotrack``),
 waits until its SIGTERM handler is in place (the package's first lines; before
 that Python's own defaults apply), then sends SIGINT or SIGTERM after a delay
-drawn uniformly from 0-1 s (a seeded generator draws every delay and signal up
+drawn uniformly from 0-1 s (``--max-delay``; a seeded generator draws every delay and signal up
 front, so the schedule does not depend on ``--jobs``). A run still alive after
 ``--timeout`` seconds is a hang: it gets SIGABRT, and faulthandler
 (PYTHONFAULTHANDLER) prints every thread's stack, kept in ``--keep``. A bad exit
@@ -98,6 +98,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=450, help="runs in all, the commands in turn (default 450)")
     ap.add_argument("--commands", default=",".join(COMMANDS), help="comma-separated, of live,record,track")
     ap.add_argument("--seed", type=int, default=15)
+    ap.add_argument("--max-delay", type=float, default=1.0, help="signals come 0 to this many seconds after the handlers are in place")
     ap.add_argument("--root", type=Path, action="append", help="checkout whose stereotrack runs (default: this one); repeat to compare")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--timeout", type=float, default=20.0, help="seconds after the signal before a run counts as hung")
@@ -106,7 +107,7 @@ def main() -> None:
     a = ap.parse_args()
     commands = a.commands.split(",")
     rng = np.random.default_rng(a.seed)
-    delays = rng.uniform(0.0, 1.0, a.runs)
+    delays = rng.uniform(0.0, a.max_delay, a.runs)
     sigs = rng.choice([int(signal.SIGINT), int(signal.SIGTERM)], a.runs)
     work = Path(tempfile.mkdtemp(prefix="early-signals-"))
     keep = a.keep or work / "findings"
@@ -124,6 +125,7 @@ def main() -> None:
         )
     plan = [(k, r, commands[k % len(commands)], float(delays[k]), int(sigs[k])) for k in range(a.runs) for r in range(len(roots))]
     outcomes = {(r, c): Counter() for r in range(len(roots)) for c in commands}
+    statuses = {(r, c): Counter() for r in range(len(roots)) for c in commands}  # where the signals landed, by exit status
     start = time.monotonic()
 
     def job(item):
@@ -133,19 +135,24 @@ def main() -> None:
             name = f"{k:04d}-{labels[r]}-{command}-{verdict}.txt".replace("/", "_")
             (keep / name).write_text(f"{labels[r]}: delay {delay:.3f} s, {signal.Signals(sig).name}\n{detail}")
             print(f"  {labels[r]} run {k} {command} {signal.Signals(sig).name} at {delay:.3f} s: {verdict} ({keep / name})", flush=True)
-        return r, command, verdict
+        return r, command, verdict, detail.split(":")[0] if verdict != "hang" else "hang"
 
     with ThreadPoolExecutor(a.jobs) as pool:
-        for r, command, verdict in pool.map(job, plan):
+        for r, command, verdict, status in pool.map(job, plan):
             outcomes[r, command][verdict] += 1
+            statuses[r, command][status] += 1
     minutes = (time.monotonic() - start) / 60
     for r, label in enumerate(labels):
         for c in commands:
             o = outcomes[r, c]
-            print(f"{label} {c}: {sum(o.values())} runs, {o['hang']} hangs, {o['bad']} bad exits")
+            how = ", ".join(f"{n} {s}" for s, n in sorted(statuses[r, c].items()))
+            print(f"{label} {c}: {sum(o.values())} runs, {o['hang']} hangs, {o['bad']} bad exits ({how})")
         total = sum((outcomes[r, c] for c in commands), Counter())
         print(f"{label} all: {sum(total.values())} runs: {total['hang']} hangs, {total['bad']} bad exits")
-    print(f"{len(plan)} runs in {minutes:.1f} min (--jobs {a.jobs}, seed {a.seed}, timeout {a.timeout:g} s); findings in {keep}")
+    print(
+        f"{len(plan)} runs in {minutes:.1f} min (signals 0-{a.max_delay:g} s in, --jobs {a.jobs}, seed {a.seed}, timeout {a.timeout:g} s); "
+        f"findings in {keep}"
+    )
     shutil.rmtree(work / "source", ignore_errors=True)
 
 

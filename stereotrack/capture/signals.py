@@ -90,7 +90,10 @@ def _retry_later(signum: int) -> None:
         time.sleep(RETRY_SECONDS)
         _State.retrying = False
         if _State.pending is not None and _State.installed:
-            signal.pthread_kill(_State.main_thread, signum)
+            try:
+                signal.pthread_kill(_State.main_thread, signum)
+            except OSError:  # the main thread has ended: so has the program
+                pass
 
     _thread.start_new_thread(retry, ())
 
