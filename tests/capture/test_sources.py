@@ -266,7 +266,7 @@ def test_a_camera_that_hangs_ends_iteration_with_a_clear_error():
         with pytest.raises(StereotrackError, match=r"camera cam1 \(sim:dots,drop=0,stop=0.3\) delivered no frame for 0.5 s"):
             for _ in src:
                 n += 1
-        assert 3 <= n <= 10
+        assert 1 <= n <= 10  # 9 frames before the hang on a quiet machine; a starved one skips some (seen: 2 at load 14)
 
 
 def test_video_files_play_at_their_rate_and_end_the_source(tmp_path):

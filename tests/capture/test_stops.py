@@ -181,7 +181,8 @@ def test_video_files_of_uneven_length_end_the_recording_cleanly(tmp_path, clips)
 
 def test_video_files_keep_their_timing_by_skipping_late_frames(tmp_path, clips):
     """Two copies of one clip played together: every pair holds the same frame of both, however busy the
-    machine (a late camera skips frames instead of drifting behind the other)."""
+    machine (a late camera skips frames instead of drifting behind the other). The deterministic version
+    (threads starved on purpose) is test_sources.py's test_video_files_pair_only_frames_of_one_index..."""
     out = tmp_path / "t"
     res = subprocess.run(
         stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), *PATIENT, "--out", str(out)),
@@ -194,6 +195,11 @@ def test_video_files_keep_their_timing_by_skipping_late_frames(tmp_path, clips):
     rec = open_recording(out)
     # of 90: nearly all on a quiet machine; a starved one skips frames (lost, as a webcam's would be), never drifts
     assert rec.n_frames >= 1
+    # Both files of a source share their start: a pair's frames were due at the same moment, frame k at k / fps.
+    t = rec.timestamps
+    assert np.array_equal(t[:, 0], t[:, 1]), t
+    k = (t[:, 0] - t[0, 0]) * 30.0
+    assert np.allclose(k, np.round(k), atol=1e-3) and np.all(np.diff(np.round(k)) >= 1), k
     assert all(np.array_equal(*pair.images) for pair in rec.frames())  # a.mkv and b.mkv are the same clip
 
 
