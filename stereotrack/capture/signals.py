@@ -13,8 +13,8 @@ nothing half-written. A second signal interrupts at once.
 
 The handler never raises inside an ``import``: an exception there can leave the
 module half-imported or its import lock held for ever (another thread importing
-it then waits for ever). A stop that would raise there is noted and the signal
-sent again ``RETRY_SECONDS`` later, until it lands outside the import.
+it then waits for ever). A stop that would raise there is noted and the handler
+runs again ``RETRY_SECONDS`` later, until it lands outside the import.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-RETRY_SECONDS = 0.01  # a stop deferred because it came inside an import is sent again this much later
+RETRY_SECONDS = 0.01  # a stop deferred because it came inside an import is handled again this much later
 
 
 class Interrupted(KeyboardInterrupt):
@@ -45,14 +45,13 @@ class _State:
     installed = False
     starting = False  # the command line is still loading: note a signal, act on it once main() runs
     pending: str | None = None  # a stop noted but not yet acted on (while starting, or inside an import)
-    retrying = False  # a thread will send the pending signal again
-    main_thread: int | None = None
+    retrying = False  # a thread will run the handler again for the pending stop
     previous: dict = {}
     scopes: list[StopOnSignals] = []
 
 
 def _handle(signum, frame) -> None:
-    name = _State.pending or signal.Signals(signum).name  # a signal sent again is the stop that was deferred
+    name = _State.pending or signal.Signals(signum).name  # a retry is the stop that was deferred
     if _State.starting:
         _State.pending = name
         return
@@ -80,8 +79,10 @@ def _inside_import(frame) -> bool:
 
 
 def _retry_later(signum: int) -> None:
-    """Send the signal to the main thread again in a moment. A bare thread (``_thread``, not ``threading``,
-    whose locks the interrupted code may hold); a real signal, so it also ends a blocking wait."""
+    """Run the handler again in a moment. From a bare thread (``_thread``, not ``threading``, whose locks the
+    interrupted code may hold), with ``interrupt_main``: Python's own flag, not a real signal, so no library
+    in the middle of loading sees another system call interrupted (a signal every 10 ms into an import of
+    numba's stack left `live` hanging at exit once in 150 runs)."""
     if _State.retrying:
         return
     _State.retrying = True
@@ -90,10 +91,7 @@ def _retry_later(signum: int) -> None:
         time.sleep(RETRY_SECONDS)
         _State.retrying = False
         if _State.pending is not None and _State.installed:
-            try:
-                signal.pthread_kill(_State.main_thread, signum)
-            except OSError:  # the main thread has ended: so has the program
-                pass
+            _thread.interrupt_main(signum)
 
     _thread.start_new_thread(retry, ())
 
@@ -111,7 +109,6 @@ def install(starting: bool = False) -> bool:
     for sig in STOP_SIGNALS:
         _State.previous[sig] = signal.signal(sig, _handle)
     _State.installed = True
-    _State.main_thread = threading.get_ident()
     return True
 
 
