@@ -81,8 +81,7 @@ def _inside_import(frame) -> bool:
 def _retry_later(signum: int) -> None:
     """Run the handler again in a moment. From a bare thread (``_thread``, not ``threading``, whose locks the
     interrupted code may hold), with ``interrupt_main``: Python's own flag, not a real signal, so no library
-    in the middle of loading sees another system call interrupted (a signal every 10 ms into an import of
-    numba's stack left `live` hanging at exit once in 150 runs)."""
+    in the middle of loading sees more interrupted system calls than the one signal the user sent."""
     if _State.retrying:
         return
     _State.retrying = True
