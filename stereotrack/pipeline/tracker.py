@@ -74,13 +74,9 @@ class Tracker:
         cams = self.rig.cameras
         balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
         confirmed = balls.confirmed_only()
-        # With colour models the range's mask is sharpened first (its integral image would be thrown away).
-        cmasks = [
-            camera_masks(cam.name, img, self.config.targets, integrals=self.colour_models is None) for cam, img in zip(cams, pair.images)
-        ]
-        foreground = (
-            [bg.foreground(img, balls) for bg, img in zip(self.backgrounds, pair.images)] if self.backgrounds else [None] * len(cams)
-        )
+        # The ranges' integral images are made with the other maps in one pass (evidence/gather.py), if at all.
+        cmasks = [camera_masks(cam.name, img, self.config.targets, integrals=False) for cam, img in zip(cams, pair.images)]
+        foreground = [bg.update(img, balls) for bg, img in zip(self.backgrounds, pair.images)] if self.backgrounds else [None] * len(cams)
         t1 = time.perf_counter()
         timings["masks"] = 1e3 * (t1 - t0)
         # Each target's evidence in each camera, once: blobs and their viewing rays, read by every later stage.
@@ -94,7 +90,8 @@ class Tracker:
                     s.min_blob_area,
                     fg,
                     (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                    self._colour_probability(t, j, cm, confirmed),
+                    self._colour_table(t, j, cm, confirmed),
+                    cm.hsv,
                 )
                 for j, (cam, cm, fg) in enumerate(zip(cams, cmasks, foreground))
             )
@@ -147,18 +144,18 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _colour_probability(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
-        """p(ball | colour) of camera j's pixels for ``target`` (None without colour models); then the model
-        learns this frame, the ball's colours under the confirmed tracks of the target."""
+    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
+        """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
+        model learns this frame, the ball's colours under the confirmed tracks of the target."""
         if self.colour_models is None:
             return None
         model = self.colour_models[target.name][j]
-        probability = model.probability(cm.hsv)
+        table = model.table(cm.hsv)
         cam = self.rig.cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
-        return probability
+        return table
 
 
 def _kept(view: CameraEvidence) -> np.ndarray:
