@@ -62,7 +62,7 @@ class Tracker:
             else None
         )
         self.last_time: float | None = None
-        workers = min(len(rig.cameras), os.cpu_count() or 1)
+        workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
     def step(self, pair: FramePair) -> FrameResult:
