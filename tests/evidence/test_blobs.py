@@ -28,6 +28,16 @@ def test_balls_pass():
     assert blob_of(lambda m: cv2.line(m, (200, 200), (300, 230), 1, 14))  # a streak: long, ball-wide (rounded ends drawn by the circle)
 
 
+def test_a_ball_partly_in_range_passes():
+    """A striped or half-lit ball whose in-range pixels are a crescent (as on the real ball videos) still seeds."""
+
+    def crescent(m):
+        cv2.circle(m, (300, 200), 30, 1, -1)
+        cv2.circle(m, (300, 214), 30, 0, -1)  # the part out of range: fill of its ellipse about 0.53
+
+    assert blob_of(crescent)
+
+
 def test_walls_rings_and_specks_fail():
     assert not blob_of(lambda m: cv2.rectangle(m, (100, 50), (500, 450), 1, -1))  # a wall: wider than a ball at 0.2 m
     assert not blob_of(lambda m: cv2.circle(m, (300, 200), 30, 1, 3))  # a ring (a hoop, a plate's rim): hollow
