@@ -10,7 +10,8 @@ lighting flickers into the foreground) is dropped, and a group seen in fewer
 than ``MIN_FRAMES`` frames, or that never leaves one place, is not a ball. With a calibrated rig the ball's
 radius is measured: detections of a group in two cameras in one frame that
 triangulate consistently give the ball's depth, and depth x apparent radius
-/ focal length its size.
+/ focal length its size; a group no two cameras see consistently is not
+proposed.
 """
 
 from __future__ import annotations
@@ -309,7 +310,8 @@ def propose(
 
     ``read(indices)`` yields (index, one image per camera) for those frames, in order. Up to ``max_frames``
     frames spread over the recording are looked at; each colour found is learnt (``learn.learn``) from up to
-    ``LEARN_FRAMES`` of the frames it was seen in. Targets are named by hue, or ``name``, ``name2``, ...;
+    ``LEARN_FRAMES`` of the frames it was seen in. With a calibrated rig of two or more cameras a colour is
+    proposed only if its detections in two cameras triangulate consistently (``ball_radius``). Targets are named by hue, or ``name``, ``name2``, ...;
     ``radius`` (metres) overrides the one measured (calibrated rigs), else 0.035."""
     step = max(1, -(-n_frames // max_frames))
     finder = BallFinder(cameras, settings, radius or Target.radius)
@@ -333,6 +335,8 @@ def propose(
             images += ball_images(group, index, hsv, cameras)
             measured.append(refine(group, rough, index, hsv))
         size = ball_radius(measured, cameras) if calibrated and len(cameras) >= 2 else None
+        if calibrated and len(cameras) >= 2 and size is None:
+            continue  # never seen at one place by two cameras: not a ball the tracker could follow (a reflection, a flicker)
         learnt = learn(images, label, radius or (round(size, 4) if size else Target.radius))
         out.append(Proposal(label, learnt, group, size))
     return out, finder.frames_seen
