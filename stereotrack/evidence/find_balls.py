@@ -1,17 +1,21 @@
 """Balls found without help: moving, round blobs of one hue in a recording, grouped by hue into proposed targets.
 
-Per camera a background model (``motion.py``) gives each frame's moving
-pixels. A blob of them is a detection when it could be a ball (``blobs.py``
-``ball_like``: a ball's size at some depth in range, compact) and the pixels
-of its core share one saturated hue (a hand, a shirt or the shadow a ball
-leaves are not one saturated hue). Detections are grouped by hue; a
-detection that recurs at one place in many frames (a static object the
-lighting flickers into the foreground) is dropped, and a group seen in fewer
-than ``MIN_FRAMES`` frames, or that never leaves one place, is not a ball. With a calibrated rig the ball's
-radius is measured: detections of a group in two cameras in one frame that
-triangulate consistently give the ball's depth, and depth x apparent radius
-/ focal length its size; a group no two cameras see consistently is not
-proposed.
+Per camera a background model (``motion.py``, fed frames scaled to the
+first frame's mean colour, so light that drifts or flickers is not motion)
+gives each frame's moving pixels. Their coloured pixels (saturated, not dark)
+are split into bands around the hues they gather at, so a ball held in a
+hand is not one blob with the hand; a blob of a band is a detection when it
+could be a ball (``blobs.py`` ``ball_like``: a ball's size at some depth in
+range, compact) and fills most of its core. Detections are split into
+colours where their hues leave a gap; a detection that recurs at one place
+in many frames is dropped (a static object that keeps looking like motion),
+and a colour seen in fewer than ``MIN_FRAMES`` frames, one that never leaves
+one place (the ghost of a ball that sat where the background started), or
+one whose blobs are typically not round and full (hands, arms) is not a
+ball. With a calibrated rig the ball's radius is measured: detections of a
+colour in two cameras in one frame that triangulate consistently give the
+ball's depth, and depth x apparent radius / focal length its size; a colour
+no two cameras see consistently is not proposed.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from .motion import BackgroundModel
 MIN_SATURATION = 50  # a ball "of one hue" is coloured: greys and whites are not
 MIN_VALUE = 50  # a dark pixel's hue is noise
 ONE_HUE = 0.7  # share of a blob's core in its hue band
-HUE_WIDTH = 10
+HUE_WIDTH = 10  # half the width of a hue band, hue steps
 HUE_GAP = 5  # hue steps with no detection that split two ball colours
 GROUP_ROUNDNESS = 0.6  # a ball colour's blobs are, in the median, at least this round (narrow / long axis) ...
 GROUP_FILL = 0.8  # ... and fill this much of their ellipse (hands and arms: 0.4-0.55 and 0.78 on the real videos)
