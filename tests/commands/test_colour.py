@@ -3,6 +3,8 @@ the colour model file beside the config, and every refusal leaving the user's co
 
 import re
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -68,8 +70,10 @@ def test_auto_finds_the_swinging_balls_measures_their_radius_and_proposes_a_targ
     assert t["hsv_min"][0] <= 165 <= t["hsv_max"][0] and abs(t["radius"] - 0.035) < 0.0035 and "(measured)" in outcome.err
     assert t["colour_model"] == "pink.colour-model.yaml" and SEPARATION.search(outcome.err).group(3) is not None
     assert (work / "swing/config.yaml").read_text() == before
-    tracked = run_cli(["track", "swing", "--config", "auto.yaml", "--quiet", "--out", "t.csv"], work)
-    assert tracked.rc == 0 and float(re.search(r"MOTA (-?[\d.]+)", tracked.err).group(1)) > 0.75, tracked.describe()
+    # A real process (no in-process time limit: a busy machine may still be loading the tracker's kernels).
+    tracked = subprocess.run([sys.executable, "-m", "stereotrack", "track", "swing", "--config", "auto.yaml", "--quiet", "--out", "t.csv"],
+                             cwd=work, capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert tracked.returncode == 0 and float(re.search(r"MOTA (-?[\d.]+)", tracked.stderr).group(1)) > 0.75, tracked.stderr
 
 
 @pytest.mark.parametrize(
