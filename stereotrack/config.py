@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -323,16 +324,24 @@ def load_config(path: str | Path) -> Config:
     return config_from_dict(load_yaml(path, "config file not found"), Path(path))
 
 
-def target_to_dict(t: Target) -> dict[str, Any]:
+def target_to_dict(t: Target, folder: str | Path | None = None) -> dict[str, Any]:
+    """A target as a config names it; ``folder``: the config's, so its colour model's path is written as the
+    loader reads it (relative to that folder, an absolute path outside it kept)."""
     out = {"name": t.name, "hsv_min": list(t.hsv_min), "hsv_max": list(t.hsv_max), "radius": float(t.radius)}
     if t.colour_model is not None:
-        out["colour_model"] = t.colour_model
+        model = t.colour_model
+        if folder is not None:
+            inside = os.path.commonpath([os.path.abspath(model), os.path.abspath(folder)]) == os.path.abspath(folder)
+            model = os.path.relpath(model, folder) if inside or not Path(model).is_absolute() else model
+        out["colour_model"] = model
     return out
 
 
-def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, Any]:
-    """Config -> YAML-able mapping; by default only settings that differ from the defaults."""
-    out: dict[str, Any] = {"targets": [target_to_dict(t) for t in config.targets]}
+def config_to_dict(config: Config, include_defaults: bool = False, path: str | Path | None = None) -> dict[str, Any]:
+    """Config -> YAML-able mapping; by default only settings that differ from the defaults. ``path``: where it is
+    saved (colour model paths are written relative to its folder)."""
+    folder = Path(path).parent if path is not None else None
+    out: dict[str, Any] = {"targets": [target_to_dict(t, folder) for t in config.targets]}
     for f in dataclasses.fields(Config):
         if f.name == "targets":
             continue
@@ -349,7 +358,7 @@ def config_to_dict(config: Config, include_defaults: bool = False) -> dict[str, 
 
 
 def save_config(config: Config, path: str | Path) -> None:
-    write_text_atomic(path, dump_yaml(config_to_dict(config)))
+    write_text_atomic(path, dump_yaml(config_to_dict(config, path=path)))
 
 
 if __name__ == "__main__":  # python -m stereotrack.config: the README's settings table

@@ -229,6 +229,7 @@ OUTPUT_KINDS: dict[str, Callable[[bytes], bool]] = {
     "PNG image": lambda head: head.startswith(b"\x89PNG"),
     "calibration file": lambda head: b"cameras:" in head,
     "calibration report": lambda head: b"calibration:" in head,
+    "colour model": lambda head: b"kind: stereotrack colour model" in head,
     "config file": lambda head: True,  # read and validated as a config before it is updated
 }
 

@@ -67,3 +67,21 @@ def test_bad_settings_are_refused_naming_file_and_key(tracker, words):
     with pytest.raises(StereotrackError) as err:
         config_from_dict({"tracker": tracker}, "my.yaml")
     assert str(err.value).startswith("my.yaml: 'tracker.") and words in str(err.value)
+
+
+@pytest.mark.parametrize("named", ["pink.colour-model.yaml", "../models/pink.colour-model.yaml", "/abs/pink.colour-model.yaml"])
+def test_a_saved_config_names_its_colour_model_as_the_user_did(tmp_path, monkeypatch, named):
+    """The loader resolves colour_model from the config's folder; saving writes it back relative to that folder
+    (an earlier version wrote the resolved path, which the next load resolved a second time)."""
+    import os
+
+    from stereotrack.config import load_config, save_config
+
+    monkeypatch.chdir(tmp_path)
+    os.makedirs("rec")
+    path = Path("rec/config.yaml")  # a relative config path, as `colour learn rec` has it
+    path.write_text(f"targets:\n- {{name: pink, hsv_min: [150, 80, 80], hsv_max: [170, 255, 255], colour_model: {named}}}\n")
+    config = load_config(path)
+    save_config(config, path)
+    assert f"colour_model: {named}" in path.read_text()
+    assert load_config(path).targets[0].colour_model == config.targets[0].colour_model

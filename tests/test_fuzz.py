@@ -35,7 +35,12 @@ FILES = {
     "calibration": ("calib.yaml", "yaml", ["track", "rec", "--calib", "calib.yaml", "--quiet", "--out", "out.csv"], ("out.csv",)),
     "config": ("config.yaml", "yaml", ["track", "rec", "--config", "config.yaml", "--quiet", "--out", "out.csv"], ("out.csv",)),
     "meta.yaml": ("rec/meta.yaml", "yaml", TRACK, ("out.csv",)),
-    "targets file": ("rec/config.yaml", "yaml", ["colour", "learn", "rec", "--roi", ROI, "--name", "pink"], ("rec/config.yaml",)),
+    "targets file": (
+        "rec/config.yaml",
+        "yaml",
+        ["colour", "learn", "rec", "--roi", ROI, "--name", "pink"],
+        ("rec/config.yaml", "rec/pink.colour-model.yaml"),
+    ),  # fmt: skip
     "frames.csv": ("rec/frames.csv", "csv", TRACK, ("out.csv",)),
     "truth.csv": ("truth.csv", "csv", ["eval", "tracks.csv", "truth.csv"], ()),
     "recording truth.csv": ("rec/truth.csv", "csv", TRACK, ("out.csv",)),
@@ -115,9 +120,9 @@ OPTIONS = {
     ),
     "eval": (["eval", "tracks.csv", "truth.csv"], {"--gate": option_values}, ()),
     "colour learn": (
-        ["colour", "learn", "rec", "--name", "pink", "--config", "new.yaml", "--roi", ROI],
+        ["colour", "learn", "rec", "--name", "pink", "--config", "new.yaml", "--model", "m.yaml", "--roi", ROI],
         {"--frame": option_values, "--roi": option_values, "--radius": option_values, "--camera": option_values, "--name": option_values},
-        ("new.yaml",),
+        ("new.yaml", "m.yaml"),
     ),
     "synth": (
         ["synth", "pendulum4", "--out", "new", "--no-progress", "--frames", "1", "--width", "64", "--height", "48"],
@@ -228,7 +233,7 @@ OUTPUT_COMMANDS = {
         ["calibrate", "--images", "left", "right", "--board", "chess.yaml", "--no-progress", "--out", "o.yaml", "--rrd"],
         ("o.yaml", "o.report.yaml"),
     ),
-    "colour learn --config": (["colour", "learn", "rec", "--name", "pink", "--roi", ROI, "--config"], ()),
+    "colour learn --config": (["colour", "learn", "rec", "--name", "pink", "--roi", ROI, "--model", "m.yaml", "--config"], ("m.yaml",)),
 }
 # Where an output may point: a recording's own files, a user's files, folders, a link, inputs, nonsense, new places.
 OUTPUT_PATHS = [

@@ -298,7 +298,7 @@ def test_a_target_that_matches_nothing_warns_without_a_python_warning(work):
 
 def test_colour_learn_takes_debug_and_there_is_a_version(work):
     outcome = run_cli(["colour", "learn", "rec", "--roi", ROI, "--name", "pink", "--debug"], work)
-    check(outcome, ("rec/config.yaml",))
+    check(outcome, ("rec/config.yaml", "rec/pink.colour-model.yaml"))
     assert outcome.rc == 0
     outcome = run_cli(["--version"], work)
     assert outcome.rc == 0 and "stereotrack 0." in outcome.out

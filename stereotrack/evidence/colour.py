@@ -75,6 +75,31 @@ def _hue_interval(h: np.ndarray, lo_pct: float, hi_pct: float) -> tuple[int, int
     return int((np.floor(a) + cut) % 180), int((np.ceil(b) + cut) % 180)
 
 
+def saturated_threshold(saturation: np.ndarray) -> float:
+    """The saturation that splits a region into ball and background: Otsu's threshold (a coloured ball on a grey
+    background is the saturated mode), at least 40 (greys are never the ball's colour)."""
+    thr, _ = cv2.threshold(np.ascontiguousarray(saturation, np.uint8).reshape(-1, 1), 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    return max(float(thr), 40.0)
+
+
+def range_of(
+    pixels: np.ndarray,
+    name: str,
+    radius: float = Target.radius,
+    margin: tuple[int, int, int] = (4, 25, 25),
+    percentiles: tuple[float, float] = (2.0, 98.0),
+) -> Target:
+    """A target whose HSV range holds a ball's pixels (N x 3 HSV): robust percentiles per channel (hue on the
+    circle, so a red ball gives a wrapping range), widened by ``margin``."""
+    h_lo, h_hi = _hue_interval(pixels[:, 0], *percentiles)
+    s_lo, s_hi = np.percentile(pixels[:, 1], percentiles)
+    v_lo, v_hi = np.percentile(pixels[:, 2], percentiles)
+    h_lo, h_hi = (h_lo - margin[0]) % 180, (h_hi + margin[0]) % 180
+    lo = (int(h_lo), int(max(0, s_lo - margin[1])), int(max(0, v_lo - margin[2])))
+    hi = (int(h_hi), int(min(255, s_hi + margin[1])), int(min(255, v_hi + margin[2])))
+    return Target(name=name, hsv_min=lo, hsv_max=hi, radius=radius)
+
+
 def learn_target(
     image_bgr: np.ndarray,
     roi: tuple[int, int, int, int],
@@ -95,19 +120,10 @@ def learn_target(
         raise StereotrackError(f"--roi {x},{y},{w},{h} is not inside the {W}x{H} image")
     hsv = to_hsv(image_bgr)
     patch = hsv[y : y + h, x : x + w].reshape(-1, 3)
-    # The ball is the saturated part of the region; Otsu on saturation separates it from a grey background.
-    s = patch[:, 1]
-    thr, _ = cv2.threshold(s.reshape(-1, 1), 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    ball = patch[s > max(thr, 40)]
+    ball = patch[patch[:, 1] > saturated_threshold(patch[:, 1])]
     if len(ball) < 10:
         raise StereotrackError(f"--roi {x},{y},{w},{h}: too few coloured pixels in the region (draw the box tightly around the ball)")
-    h_lo, h_hi = _hue_interval(ball[:, 0], *percentiles)
-    s_lo, s_hi = np.percentile(ball[:, 1], percentiles)
-    v_lo, v_hi = np.percentile(ball[:, 2], percentiles)
-    h_lo, h_hi = (h_lo - margin[0]) % 180, (h_hi + margin[0]) % 180
-    lo = (int(h_lo), int(max(0, s_lo - margin[1])), int(max(0, v_lo - margin[2])))
-    hi = (int(h_hi), int(min(255, s_hi + margin[1])), int(min(255, v_hi + margin[2])))
-    target = Target(name=name, hsv_min=lo, hsv_max=hi, radius=radius)
+    target = range_of(ball, name, radius, margin, percentiles)
     mask = target_mask(hsv, target)
     inside = np.zeros(mask.shape, bool)
     inside[y : y + h, x : x + w] = True

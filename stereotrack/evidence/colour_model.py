@@ -27,6 +27,7 @@ import yaml
 
 from ..config import Target
 from ..errors import StereotrackError
+from ..files import load_yaml, write_text_atomic
 from .kernels import HUE_STEP, SAT_STEP, hs_histograms
 
 H_BINS, S_BINS = 180 // HUE_STEP, 256 // SAT_STEP  # 45 x 32: a pixel's bin is (hue // HUE_STEP, saturation // SAT_STEP)
@@ -118,20 +119,21 @@ class ColourModel:
             "separation": round(float(separation), 4),
             "ball": np.round(self.ball, 6).tolist(),
         }
-        Path(path).write_text(yaml.safe_dump(data, default_flow_style=None, sort_keys=False))
+        write_text_atomic(path, yaml.safe_dump(data, default_flow_style=None, sort_keys=False))
 
 
 def load_colour_model(path: str | Path) -> np.ndarray:
     """The ball histogram of a colour model file written by ``stereotrack colour learn``; one clear error for
     a missing, truncated or foreign file, or one of another version."""
     path = Path(path)
-    if not path.is_file():
-        raise StereotrackError(f"{path}: colour model file not found (learn it again: stereotrack colour learn)")
     try:
-        data = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        data = load_yaml(path, "colour model file not found (learn it again: stereotrack colour learn)", "colour model file")
+    except StereotrackError as exc:
+        if "not found" in str(exc):
+            raise
+        detail = str(exc).removeprefix(f"{path}: ")
         raise StereotrackError(
-            f"{path}: not a readable colour model ({type(exc).__name__}); learn it again with stereotrack colour learn"
+            f"{path}: not a readable colour model ({detail}; truncated?); learn it again with stereotrack colour learn"
         ) from None
     if not isinstance(data, dict) or data.get("kind") != "stereotrack colour model":
         raise StereotrackError(f"{path}: not a stereotrack colour model file")
