@@ -25,35 +25,17 @@ import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 
-def video_reader(path: Path):
-    def read(indices):
-        wanted = sorted(set(int(i) for i in indices))
-        cap = cv2.VideoCapture(str(path))
-        i = 0
-        for index in wanted:
-            while i < index and cap.grab():
-                i += 1
-            ok, image = cap.read()
-            i += 1
-            if not ok:
-                break
-            yield index, (image,)
-        cap.release()
-
-    return read
-
-
 def real(videos: Path) -> list[str]:
     from real_footage import load_labels
 
     from stereotrack.camera import Camera, intrinsics_from_fov
+    from stereotrack.commands.colour import _Video
     from stereotrack.evidence.colour import target_mask, to_hsv
     from stereotrack.evidence.find_balls import propose
 
@@ -63,11 +45,9 @@ def real(videos: Path) -> list[str]:
         "|---|---|---|---|---|",
     ]
     for video in dict.fromkeys(lab.video for lab in labels):
-        cap = cv2.VideoCapture(str(videos / video))
-        n, w, h = (int(cap.get(p)) for p in (cv2.CAP_PROP_FRAME_COUNT, cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT))
-        cap.release()
+        clip = _Video(videos / video)  # what `colour learn --auto VIDEO` reads
+        n, (w, h), read = clip.n_frames, clip.size, clip.frames
         cam = Camera("video", (w, h), intrinsics_from_fov(w, h, 60.0), np.zeros(5), np.eye(3), np.zeros(3))
-        read = video_reader(videos / video)
         found, looked = propose(read, n, [cam], False, max_frames=100_000)
         want = {lab.frame: lab for lab in labels if lab.video == video}
         frames = {i: to_hsv(img[0]) for i, img in read(sorted(want))}

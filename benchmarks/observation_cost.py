@@ -27,7 +27,7 @@ VARIANTS = [
     ("default (all on)", {}),
     ("no colour model", {"colour_model": False}),
     ("no motion", {"motion": False}),
-    ("one thread (cameras in turn)", {"threads": 1}),
+    ("cameras side by side (threads 0)", {"threads": 0}),
     ("colour window likelihood", {"likelihood": "colour_window"}),
     ("all off (the paper's model)", {"colour_model": False, "motion": False, "ball_blobs_only": False, "likelihood": "colour_window"}),
 ]
