@@ -333,7 +333,11 @@ def detector_table(seeds: list[int]) -> str:
             noisy = with_corner_noise(ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(map(tuple, rows))),
                                       NOISE_RMS_PX / np.sqrt(2), rng)  # fmt: skip
             fits[label].append(rig_errors(rig, calibrate(noisy, BOARD).rig))
-        print(f"  detectors, seed {seed}: " + "; ".join(f"{k} {v[-1]['rotation_deg']:.3f} deg" for k, v in fits.items()), file=sys.stderr, flush=True)
+        print(
+            f"  detectors, seed {seed}: " + "; ".join(f"{k} {v[-1]['rotation_deg']:.3f} deg" for k, v in fits.items()),
+            file=sys.stderr,
+            flush=True,
+        )
     lines = [f"| 2 cameras, seeds {seeds[0]}-{seeds[-1]}, {n_images} images | boards found | corner error, px RMS | 99th percentile | worst | ms per image |",
              "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
     for name in detectors:
