@@ -27,6 +27,7 @@ VARIANTS = [
     ("default (all on)", {}),
     ("no colour model", {"colour_model": False}),
     ("no motion", {"motion": False}),
+    ("one thread (cameras in turn)", {"threads": 1}),
     ("colour window likelihood", {"likelihood": "colour_window"}),
     ("all off (the paper's model)", {"colour_model": False, "motion": False, "ball_blobs_only": False, "likelihood": "colour_window"}),
 ]
@@ -47,8 +48,8 @@ def main() -> int:
 
     warm_up()
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores)", file=sys.stderr)
-    print("| size | variant | step ms | floor ms | step / floor | masks | blobs | particles |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| size | variant | step ms | floor ms | step / floor | evidence (wall) | masks (work) | blobs (work) | particles |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for size in args.sizes:
         w, h = (int(x) for x in size.split("x"))
         spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)
@@ -64,10 +65,13 @@ def main() -> int:
                 config = replace(base, tracker=replace(base.tracker, particles=2000, alpha=0.2, **changes))
                 runs[label].append(bench_case(frames, renderer.rig, config))
         for label, _ in VARIANTS:
-            med = {k: statistics.median(r[k] for r in runs[label]) for k in ("step", "floor", "ratio", "masks", "blobs", "particles")}
+            med = {
+                k: statistics.median(r[k] for r in runs[label])
+                for k in ("step", "floor", "ratio", "evidence", "masks", "blobs", "particles")
+            }
             print(
                 f"| {w}x{h} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | "
-                f"{med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} |",
+                f"{med['evidence']:.2f} | {med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} |",
                 flush=True,
             )
     print(f"load average at end: {os.getloadavg()[0]:.1f}", file=sys.stderr)

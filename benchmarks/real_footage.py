@@ -112,11 +112,11 @@ def model_evidence(hsv_min, hsv_max, min_area: int = 6, radius: float = 0.035, f
                 state["colour"] = ColourModel.for_target(target)
             hsv = to_hsv(image)
             mask = target_mask(hsv, target)
-            probability = state["colour"].probability(hsv)
+            table = state["colour"].table(hsv)
             state["colour"].learn(hsv, mask)  # no tracks here: the room's colours only
             ev = CameraEvidence.from_mask(
-                state["camera"], mask, None, "components", min_area, state["background"].foreground(image),
-                (radius, s.d_min, s.d_max), probability,
+                state["camera"], mask, None, "components", min_area, state["background"].update(image),
+                (radius, s.d_min, s.d_max), table, hsv,
             )  # fmt: skip
             seeds = ev.proposal_seeds()
             return seeds.centres, seeds.radii

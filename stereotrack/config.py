@@ -73,6 +73,9 @@ class TrackerSettings:
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )
+    threads: int = setting(
+        0, "threads that build the cameras' evidence side by side: 0 = one per camera up to the machine's cores, 1 = none", low=0, high=64
+    )
     motion_sigma: float = setting(0.02, "random-walk standard deviation per frame, metres", low=0.0, high=10.0)
     d_min: float = setting(0.2, "nearest depth along a viewing ray for abductive particles, metres", low=0.0, high=1000.0)
     d_max: float = setting(5.0, "farthest depth along a viewing ray, metres", low=0.0, high=1000.0)

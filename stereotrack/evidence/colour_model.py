@@ -27,10 +27,12 @@ import yaml
 
 from ..config import Target
 from ..errors import StereotrackError
+from .kernels import HUE_STEP, SAT_STEP, hs_histograms
 
-H_BINS, S_BINS = 45, 32  # 4 hue steps and 8 saturation steps per bin
+H_BINS, S_BINS = 180 // HUE_STEP, 256 // SAT_STEP  # 45 x 32: a pixel's bin is (hue // HUE_STEP, saturation // SAT_STEP)
 _RANGES = [0, 180, 0, 256]
 VERSION = 1
+_NO_DISCS = np.zeros((0, 0), np.uint8)
 LEARN_STEP = 4  # histograms are learnt from every 4th pixel in each direction: colours, not positions, matter
 CORE = 0.7  # the part of a tracked ball's disc (in its radius) whose pixels teach the ball's colours
 
@@ -76,28 +78,33 @@ class ColourModel:
         ball = (ball > 0).astype(np.uint8)
         return cls(_normalised(hs_histogram(hsv, ball)), _normalised(hs_histogram(hsv, 1 - ball)))
 
-    def probability(self, hsv: np.ndarray) -> np.ndarray:
-        """p(ball | colour) per pixel, 0..255 (uint8)."""
+    def table(self, hsv: np.ndarray) -> np.ndarray:
+        """p(ball | colour) x 255 per hue-saturation bin (H_BINS x S_BINS uint8): what a pixel of that colour
+        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet."""
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         ratio = self.ball / np.maximum(self.ball + self.background, 1e-12)
-        return cv2.calcBackProject([hsv], [0, 1], (255.0 * ratio).astype(np.float32), _RANGES, 1)
+        return np.clip(np.rint(255.0 * ratio), 0, 255).astype(np.uint8)
+
+    def probability(self, hsv: np.ndarray) -> np.ndarray:
+        """p(ball | colour) per pixel, 0..255 (uint8): the table read back per pixel. (The tracker reads the
+        table inside its one pass over the range instead, evidence/gather.py.)"""
+        return cv2.calcBackProject([hsv], [0, 1], self.table(hsv).astype(np.float32), _RANGES, 1)
 
     def learn(
         self, hsv: np.ndarray, in_range: np.ndarray, centres_uv: np.ndarray | None = None, radii_px: np.ndarray | None = None
     ) -> None:
         """Learn this frame: the ball's colours from the pixels in range under the discs of the tracked balls
         (pixel centres and apparent radii; their cores), the background's from every other pixel."""
-        step = (slice(None, None, LEARN_STEP), slice(None, None, LEARN_STEP))
-        small = np.ascontiguousarray(hsv[step])
-        rest = None
+        h, w = hsv.shape[:2]
+        discs = _NO_DISCS
         if centres_uv is not None and len(centres_uv):
-            discs = disc_mask(small.shape[:2], np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
-            ball_px = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[step]))
-            if ball_px.any():
-                self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(hs_histogram(small, ball_px))
-            rest = cv2.bitwise_not(discs)
-        background = _normalised(hs_histogram(small, rest))
+            grid = (-(-h // LEARN_STEP), -(-w // LEARN_STEP))  # the subsampled grid the histograms count on
+            discs = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
+        on_ball, rest = hs_histograms(hsv, LEARN_STEP, in_range, discs)
+        if on_ball.any():
+            self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
+        background = _normalised(rest)
         self.background = background if self.background is None else (1 - self.rate) * self.background + self.rate * background
 
     # ----------------------------------------------------------------- file

@@ -9,13 +9,14 @@ explain-away looks the blobs up, the viewer draws the rays.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
-import cv2
 import numpy as np
 
 from ..camera import Camera
 from .blobs import Blobs, ball_like, find_blobs
 from .colour import integral_image
+from .kernels import evidence_maps
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,7 +38,6 @@ class CameraEvidence:
 
     camera: Camera
     mask: np.ndarray  # H x W uint8, 1 where a pixel has the target's colour
-    integral: np.ndarray  # (H+1) x (W+1) int32 summed-area table of the mask: any window's count in O(1)
     blobs: Blobs
     origins: np.ndarray  # M x 3: each blob's viewing ray starts at the camera centre ...
     directions: np.ndarray  # M x 3: ... and runs along this unit vector through the blob's centroid
@@ -45,6 +45,13 @@ class CameraEvidence:
     moving_integral: np.ndarray | None = None  # its summed-area table
     seeds: Seeds | None = None  # the blobs abductive particles start from (None: every blob of the mask)
     soft_integral: np.ndarray | None = None  # summed-area table of p(ball | colour) x 255 inside the range (colour_model.py)
+    mask_integral: np.ndarray | None = None  # the mask's summed-area table when it was at hand; else made when first asked
+
+    @cached_property
+    def integral(self) -> np.ndarray:
+        """(H+1) x (W+1) int32 summed-area table of the mask: any window's count in O(1). Made only when a
+        stage asks (the ball-shape likelihood reads the soft map's instead)."""
+        return self.mask_integral if self.mask_integral is not None else integral_image(self.mask)
 
     def proposal_seeds(self) -> Seeds:
         """The seeds, or every blob of the mask when none were chosen."""
@@ -64,32 +71,58 @@ class CameraEvidence:
         min_blob_area: int = 6,
         foreground: np.ndarray | None = None,
         ball: tuple[float, float, float] | None = None,
-        probability: np.ndarray | None = None,
+        colour_table: np.ndarray | None = None,
+        hsv: np.ndarray | None = None,
     ) -> CameraEvidence:
-        """Blobs and rays of a mask (its integral image too, unless given). With the camera's ``foreground``,
-        the moving part of the mask is a second map, and its blobs seed particles too. With ``ball``
-        (radius, d_min, d_max), only blobs that could be such a ball seed particles (``blobs.ball_like``). With
-        the colour model's ``probability`` (uint8, p(ball | colour) x 255), the mask keeps the pixels likelier
-        on the ball than on the background, and a soft map (the probability inside the range) is kept too;
-        the moving map still takes the whole range (a ball moving in front of its own colour)."""
-        soft_integral = None
+        """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
+        image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
+        second map, and its blobs seed particles too. With ``ball`` (radius, d_min, d_max), only blobs that
+        could be such a ball seed particles (``blobs.ball_like``). With the colour model's ``colour_table``
+        (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
+        likelier on the ball than on the background, and a soft map (the probability inside the range) is
+        kept too; the moving map still takes the whole range (a ball moving in front of its own colour).
+        The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
-        if probability is not None:
-            soft = cv2.bitwise_and(probability, probability, mask=mask)
-            soft_integral = integral_image(soft)
-            mask = cv2.threshold(soft, 127, 1, cv2.THRESH_BINARY)[1]
-            integral = None
+        soft_integral = moving = moving_integral = None
+        if colour_table is not None or foreground is not None:
+            soft = np.zeros_like(in_range) if colour_table is not None else _NO_TABLE
+            mask = np.zeros_like(in_range) if colour_table is not None else in_range
+            moving = np.zeros_like(in_range) if foreground is not None else None
+            h, w = in_range.shape
+            evidence_maps(
+                in_range,
+                in_range.max(axis=1),  # which rows hold any pixel in range (numpy's reduction is vectorised)
+                hsv if colour_table is not None else _NO_HSV,
+                colour_table if colour_table is not None else _NO_TABLE,
+                foreground if foreground is not None else _NO_TABLE,
+                _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX,
+                _nearest(foreground.shape[1], w) if foreground is not None else _NO_INDEX,
+                soft,
+                mask if colour_table is not None else _NO_TABLE,
+                moving if moving is not None else _NO_TABLE,
+            )
+            if colour_table is not None:
+                soft_integral = integral_image(soft)
+            if moving is not None:
+                moving_integral = integral_image(moving)
         blobs = find_blobs(mask, blob_method, min_blob_area)
         origins, directions = camera.rays(blobs.centres)
-        moving = moving_integral = None
-        if foreground is not None:
-            moving = cv2.bitwise_and(in_range, foreground)
-            moving_integral = integral_image(moving)
         seeds = None
         if ball is not None or moving is not None:
             seeds = _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_area, ball)
-        integral = integral_image(mask) if integral is None else integral
-        return cls(camera, mask, integral, blobs, origins, directions, moving, moving_integral, seeds, soft_integral)
+        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral)
+
+
+_NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
+_NO_TABLE = np.zeros((0, 0), np.uint8)
+_NO_INDEX = np.zeros(0, np.intp)
+
+
+@lru_cache(maxsize=16)
+def _nearest(small: int, full: int) -> np.ndarray:
+    """Which of ``small`` cells each of ``full`` pixels reads, as cv2.resize's INTER_NEAREST picks them."""
+    index = np.minimum(np.floor(np.arange(full) * (small / full)).astype(np.intp), small - 1)
+    return index
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob

@@ -9,6 +9,10 @@ import numpy as np
 
 from ..kernels import kernel
 
+# A colour model's bins (colour_model.py): this many hue and saturation steps each. Constants here, so the
+# compiled code divides by shifts, not by a division per pixel.
+HUE_STEP, SAT_STEP = 4, 8
+
 
 @kernel
 def component_boxes(labels, n):
@@ -79,3 +83,78 @@ def mask_moments(mask, boxes, scale):
             centre[b, 0] = 0.5 * (x0 + x1)
             centre[b, 1] = 0.5 * (y0 + y1)
     return count, centre, size, second
+
+
+@kernel
+def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, soft, mask, moving):
+    """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
+    range left 0:
+
+    - with a colour ``table`` (p(ball | colour) x 255 per hue-saturation bin; empty: no colour model) the
+      ``soft`` map, p inside the range, and ``mask`` = soft > 127 (what OpenCV's back-projection, a masked
+      AND and a threshold give, in one pass that reads only pixels in range);
+    - with a ``foreground`` map (empty: no motion; pixel (x, y) reads foreground[fg_rows[y], fg_cols[x]],
+      nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground.
+    Rows with no pixel in range (``rows_in_range`` 0; most rows: the range is a few balls) are passed over."""
+    h, w = in_range.shape
+    use_table = table.shape[0] > 0
+    use_fg = foreground.shape[0] > 0
+    for y in range(h):
+        if not rows_in_range[y]:
+            continue
+        fy = fg_rows[y] if use_fg else 0
+        for x in range(w):
+            if in_range[y, x]:
+                if use_table:
+                    p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
+                    soft[y, x] = p
+                    mask[y, x] = 1 if p > 127 else 0
+                if use_fg:
+                    moving[y, x] = 1 if foreground[fy, fg_cols[x]] else 0
+
+
+@kernel
+def hs_histograms(hsv, step, in_range, discs):
+    """Hue-saturation histograms (counts, float32) of every ``step``-th pixel in each direction: the pixels
+    inside ``discs`` (a mask on that subsampled grid; empty: none) that are in range (the ball's colours), and
+    the pixels outside the discs (the background's). What cv2.calcHist gives on the subsampled copies."""
+    h, w = hsv.shape[0], hsv.shape[1]
+    ball = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
+    rest = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
+    use_discs = discs.shape[0] > 0
+    for j in range(0, (h + step - 1) // step):
+        y = j * step
+        for i in range(0, (w + step - 1) // step):
+            x = i * step
+            hb = hsv[y, x, 0] // HUE_STEP
+            sb = hsv[y, x, 1] // SAT_STEP
+            if use_discs and discs[j, i]:
+                if in_range[y, x]:
+                    ball[hb, sb] += 1.0
+            else:
+                rest[hb, sb] += 1.0
+    return ball, rest
+
+
+@kernel
+def background_step(image, background, learn, rate, threshold, moving):
+    """One frame of the background model (motion.py), in one pass over the image: each 2 x 2 block of
+    ``image`` (H x W x 3 uint8) averaged (as cv2.resize's INTER_AREA halves an image) is compared with its
+    ``background`` cell (H/2 x W/2 x 3 float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the
+    background rounded to grey levels) exceeds ``threshold``; then the cell learns the block,
+    b += rate (block - b), where ``learn`` is set."""
+    h, w = background.shape[0], background.shape[1]
+    a = np.float32(rate)
+    for j in range(h):
+        top, bottom = image[2 * j], image[2 * j + 1]
+        cells, learning, out = background[j], learn[j], moving[j]
+        for i in range(w):
+            change = np.int32(0)
+            for c in range(3):
+                block = (
+                    np.int32(top[2 * i, c]) + np.int32(top[2 * i + 1, c]) + np.int32(bottom[2 * i, c]) + np.int32(bottom[2 * i + 1, c]) + 2
+                ) >> 2
+                change += abs(block - np.int32(cells[i, c] + np.float32(0.5)))  # the background is >= 0: + 0.5 rounds it
+                if learning[i]:
+                    cells[i, c] += a * (np.float32(block) - cells[i, c])
+            out[i] = 1 if change > threshold else 0

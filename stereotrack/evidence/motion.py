@@ -18,9 +18,9 @@ import numpy as np
 
 from ..camera import Camera
 from ..results import TrackedBalls
+from .kernels import background_step
 
 SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
-_CHANNEL_SUM = np.ones((1, 3), np.float32)
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
 
 
@@ -34,21 +34,24 @@ class BackgroundModel:
         self._background: np.ndarray | None = None  # float32, half size
 
     def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
-        """This frame's foreground (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
+        """This frame's foreground at the image's size (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
         h, w = image.shape[:2]
-        small = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA)
+        return cv2.resize(self.update(image, balls), (w, h), interpolation=cv2.INTER_NEAREST)
+
+    def update(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
+        """This frame's foreground on the background's grid (1 / SCALE of the image's size, uint8 0/1; the
+        tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are."""
+        h, w = image.shape[:2]
         if self._background is None:
-            self._background = small.astype(np.float32)
-            return np.zeros((h, w), np.uint8)
-        diff = cv2.absdiff(small, cv2.convertScaleAbs(self._background))
-        change = cv2.transform(diff, _CHANNEL_SUM)  # |dB| + |dG| + |dR|, saturating at 255 (numpy's max over channels costs 20x)
-        moving = cv2.threshold(change, self.threshold, 1, cv2.THRESH_BINARY)[1]
-        learn = np.full(moving.shape, 255, np.uint8)
+            self._background = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA).astype(np.float32)
+            return np.zeros(self._background.shape[:2], np.uint8)
+        learn = np.ones(self._background.shape[:2], np.uint8)
         if balls is not None and len(balls):
             uv, front, depth = self.camera.view(balls.centres)
             r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
             for (u, v), ok, radius in zip(uv, front, r):
                 if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
-        cv2.accumulateWeighted(small, self._background, self.rate, mask=learn)
-        return cv2.resize(moving, (w, h), interpolation=cv2.INTER_NEAREST)
+        moving = np.empty(learn.shape, np.uint8)
+        background_step(image, self._background, learn, self.rate, self.threshold, moving)
+        return moving

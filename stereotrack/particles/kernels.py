@@ -193,17 +193,20 @@ def _four(integral, u, v, dx, dy, half):
 
 
 @kernel(inline="always")
-def _centre_surround(integral, u, v, r, inner, mid, outer, scale):
+def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound):
     """How much a disc of apparent radius ``r`` at (u, v) is what this map shows there. Four looks, each a
     share of set pixels: the disc's core (should be full), its four sides just inside its edge (full: a
     patch smaller than the disc leaves them empty), the four corners of its bounding square (empty: a
     square or a wider patch fills them), and the ring around it, on its second-emptiest side of four
     (empty: a wall fills every side, its straight edge three, a neighbouring ball or box only one). The score
-    is core x sides x (1 - corners) x (1 - ring)."""
+    is core x sides x (1 - corners) x (1 - ring). Every factor is at most 1, so a core fill at or under
+    ``bound`` (what the caller already has) is returned as it is: the other looks could not raise it."""
     c_in, a_in = _box_count(integral, u, v, max(inner * r, 0.5))
     if a_in == 0.0:
         return 0.0
     a_in *= scale  # a pixel is worth up to ``scale`` (a probability map x 255), else 1
+    if c_in / a_in <= bound:
+        return c_in / a_in
     a, b = mid * r, outer * r
     ring, second = 1.0, 1.0  # the emptiest strip and the next
     seen = 0
@@ -277,7 +280,7 @@ def ball_shape_likelihood(
             c, a = _box_count(colour, u, v, max(inner * r, 0.5))
             out[i] *= max(c / (a * colour_scale) if a > 0.0 else 0.0, floor)
             continue
-        best = _centre_surround(colour, u, v, r, inner, mid, outer, colour_scale)
+        best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor), floor)
         if use_moving:
-            best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0))
-        out[i] *= max(best, floor)
+            best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0, best))
+        out[i] *= best

@@ -7,7 +7,9 @@ from, and sinks never reach back into it.
 
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -60,6 +62,8 @@ class Tracker:
             else None
         )
         self.last_time: float | None = None
+        workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
+        self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
     def step(self, pair: FramePair) -> FrameResult:
         self.rig.check_images(pair.images)
@@ -69,39 +73,24 @@ class Tracker:
         if not np.isfinite(dt) or dt < 0:
             dt = 0.0
         self.last_time = now
-        timings: dict[str, float] = {}
+        timings: dict[str, float] = {"masks": 0.0, "blobs": 0.0}
         t0 = time.perf_counter()
         cams = self.rig.cameras
         balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
         confirmed = balls.confirmed_only()
-        # With colour models the range's mask is sharpened first (its integral image would be thrown away).
-        cmasks = [
-            camera_masks(cam.name, img, self.config.targets, integrals=self.colour_models is None) for cam, img in zip(cams, pair.images)
-        ]
-        foreground = (
-            [bg.foreground(img, balls) for bg, img in zip(self.backgrounds, pair.images)] if self.backgrounds else [None] * len(cams)
+        # Each camera's evidence, once: its masks, then each target's blobs and their viewing rays, read by
+        # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
+        # parts release the GIL).
+        per_camera = list(
+            self._pool.map(self._camera_evidence, range(len(cams)), pair.images, [balls] * len(cams), [confirmed] * len(cams))
         )
-        t1 = time.perf_counter()
-        timings["masks"] = 1e3 * (t1 - t0)
-        # Each target's evidence in each camera, once: blobs and their viewing rays, read by every later stage.
-        views = {
-            t.name: tuple(
-                CameraEvidence.from_mask(
-                    cam,
-                    cm.masks[t.name],
-                    cm.integrals.get(t.name),
-                    s.blob_method,
-                    s.min_blob_area,
-                    fg,
-                    (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                    self._colour_probability(t, j, cm, confirmed),
-                )
-                for j, (cam, cm, fg) in enumerate(zip(cams, cmasks, foreground))
-            )
-            for t in self.config.targets
-        }
+        cmasks = [cm for cm, _, _ in per_camera]
+        views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
+        for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
+            timings["masks"] += masks_ms
+            timings["blobs"] += blobs_ms
         t2 = time.perf_counter()
-        timings["blobs"] = 1e3 * (t2 - t1)
+        timings["evidence"] = 1e3 * (t2 - t0)  # the stage's own time, cameras side by side
         states = {t.name: self.populations[t.name].step(views[t.name], dt, confirmed) for t in self.config.targets}
         t3 = time.perf_counter()
         timings["particles"] = 1e3 * (t3 - t2)
@@ -147,18 +136,50 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _colour_probability(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
-        """p(ball | colour) of camera j's pixels for ``target`` (None without colour models); then the model
-        learns this frame, the ball's colours under the confirmed tracks of the target."""
+    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls):
+        """Camera j's masks, and every target's evidence in it; with the ms each half took."""
+        s = self.config.tracker
+        cam = self.rig.cameras[j]
+        t0 = time.perf_counter()
+        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
+        cm = camera_masks(cam.name, image, self.config.targets, integrals=False)
+        foreground = self.backgrounds[j].update(image, balls) if self.backgrounds else None
+        t1 = time.perf_counter()
+        views = {
+            t.name: CameraEvidence.from_mask(
+                cam,
+                cm.masks[t.name],
+                None,
+                s.blob_method,
+                s.min_blob_area,
+                foreground,
+                (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
+                self._colour_table(t, j, cm, confirmed),
+                cm.hsv,
+            )
+            for t in self.config.targets
+        }
+        return cm, views, (1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+
+    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
+        """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
+        model learns this frame, the ball's colours under the confirmed tracks of the target."""
         if self.colour_models is None:
             return None
         model = self.colour_models[target.name][j]
-        probability = model.probability(cm.hsv)
+        table = model.table(cm.hsv)
         cam = self.rig.cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
-        return probability
+        return table
+
+
+class _InThisThread:
+    """``map`` without threads (a one-core machine, or one camera)."""
+
+    def map(self, fn, *iterables):
+        return map(fn, *iterables)
 
 
 def _kept(view: CameraEvidence) -> np.ndarray:

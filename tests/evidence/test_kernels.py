@@ -22,3 +22,80 @@ def test_component_boxes_and_mask_moments_match_opencv():
         assert np.allclose(centre[i], (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]))
         assert np.array_equal(size[i], cv2.boundingRect(mask[y0:y1, x0:x1])[2:])
         assert np.allclose(second[i], (m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]))
+
+
+def _scene(rng, h=121, w=163):
+    """A smooth random colour image (odd sizes: the nearest-neighbour maps must not assume even ones)."""
+    bgr = cv2.GaussianBlur(rng.integers(0, 256, (h, w, 3), dtype=np.uint8), (0, 0), 3)
+    bgr = cv2.normalize(bgr, None, 0, 255, cv2.NORM_MINMAX)
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+
+
+def test_the_one_pass_evidence_maps_are_what_opencv_gives_step_by_step():
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.colour_model import H_BINS, HUE_STEP, S_BINS, SAT_STEP, ColourModel
+    from stereotrack.evidence.gather import CameraEvidence
+
+    rng = np.random.default_rng(11)
+    hsv = _scene(rng)
+    in_range = (cv2.inRange(hsv, (0, 60, 0), (120, 255, 255)) > 0).astype(np.uint8)
+    assert 0.2 < in_range.mean() < 0.9
+    model = ColourModel(rng.random((H_BINS, S_BINS)).astype(np.float32), rng.random((H_BINS, S_BINS)).astype(np.float32))
+    table = model.table(hsv)
+    assert HUE_STEP * H_BINS == 180 and SAT_STEP * S_BINS == 256
+    foreground = (rng.random((60, 81)) < 0.4).astype(np.uint8)  # the background model's half-size grid
+    camera = default_rig().cameras[0]
+    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, blob_method="components")
+
+    probability = model.probability(hsv)  # OpenCV's back-projection of the same table
+    soft = cv2.bitwise_and(probability, probability, mask=in_range)
+    assert np.array_equal(ev.soft_integral, cv2.integral(soft, sdepth=cv2.CV_32S))
+    assert np.array_equal(ev.mask, (soft > 127).astype(np.uint8))
+    assert np.array_equal(ev.integral, cv2.integral(ev.mask, sdepth=cv2.CV_32S))
+    moving = cv2.bitwise_and(in_range, cv2.resize(foreground, (163, 121), interpolation=cv2.INTER_NEAREST))
+    assert 0 < moving.sum() < in_range.sum()
+    assert np.array_equal(ev.moving, moving)
+    assert np.array_equal(ev.moving_integral, cv2.integral(moving, sdepth=cv2.CV_32S))
+
+    plain = CameraEvidence.from_mask(camera, in_range, foreground=foreground)  # no colour model: the range is the mask
+    assert np.array_equal(plain.mask, in_range) and plain.soft_integral is None
+    assert np.array_equal(plain.integral, cv2.integral(in_range, sdepth=cv2.CV_32S))
+
+
+def test_the_colour_histograms_are_what_calchist_counts_on_the_subsampled_grid():
+    from stereotrack.evidence.colour_model import H_BINS, LEARN_STEP, S_BINS
+
+    rng = np.random.default_rng(12)
+    hsv = _scene(rng)
+    in_range = (rng.random(hsv.shape[:2]) < 0.5).astype(np.uint8)
+    small = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
+    discs = np.zeros(small.shape[:2], np.uint8)
+    cv2.circle(discs, (20, 15), 9, 255, -1)
+    ball, rest = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs)
+    ranges = [0, 180, 0, 256]
+    on_ball = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[::LEARN_STEP, ::LEARN_STEP]))
+    assert ball.sum() > 50
+    assert np.array_equal(ball, cv2.calcHist([small], [0, 1], on_ball, [H_BINS, S_BINS], ranges))
+    assert np.array_equal(rest, cv2.calcHist([small], [0, 1], cv2.bitwise_not(discs), [H_BINS, S_BINS], ranges))
+    _, everything = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8))
+    assert np.array_equal(everything, cv2.calcHist([small], [0, 1], None, [H_BINS, S_BINS], ranges))
+
+
+def test_the_background_step_is_what_opencv_gives_step_by_step():
+    rng = np.random.default_rng(13)
+    first = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    image = np.clip(first.astype(int) + rng.integers(-40, 41, first.shape), 0, 255).astype(np.uint8)
+    background = cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA).astype(np.float32)
+    learn = (rng.random((60, 80)) < 0.7).astype(np.uint8)
+    small = cv2.resize(image, (80, 60), interpolation=cv2.INTER_AREA)
+    change = cv2.transform(cv2.absdiff(small, cv2.convertScaleAbs(background)), np.ones((1, 3), np.float32))
+    expected_moving = (change > 30).astype(np.uint8)
+    expected = background.copy()
+    cv2.accumulateWeighted(small, expected, 0.05, mask=learn * 255)
+    moving = np.empty((60, 80), np.uint8)
+    evidence_kernels.background_step(image, background, learn, 0.05, 30.0, moving)
+    assert 0.1 < expected_moving.mean() < 0.9
+    assert np.array_equal(moving, expected_moving)
+    assert np.allclose(background, expected, atol=1e-4)
+    assert not np.allclose(background[learn == 1], cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)[learn == 1])

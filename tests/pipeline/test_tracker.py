@@ -94,6 +94,18 @@ def test_results_carry_particles_objects_and_timings():
     assert {"masks", "blobs", "particles", "clusters", "tracks", "step"} <= set(res.timings_ms)
 
 
+def test_cameras_side_by_side_give_what_cameras_in_turn_give():
+    """The evidence threads change only when the work is done: every frame's particles and tracks are the same."""
+    together = run_scene("crossing", 12, {"threads": 0}, width=320, height=240)
+    in_turn = run_scene("crossing", 12, {"threads": 1}, width=320, height=240)
+    assert len(together[0]) > 0
+    assert np.array_equal(together[0], in_turn[0])
+    for a, b in zip(together[2], in_turn[2]):
+        assert all(
+            np.array_equal(p.positions, q.positions) and np.array_equal(p.weights, q.weights) for p, q in zip(a.particles, b.particles)
+        )
+
+
 @pytest.mark.parametrize(
     "tracker, message",
     [
