@@ -1,6 +1,6 @@
 """Calibration accuracy against a known rig, and on OpenCV's real stereo pairs: the README's calibration figures.
 
-    .venv/bin/python benchmarks/calibration_accuracy.py [--seeds 200-209] [--write]
+    .venv/bin/python benchmarks/calibration_accuracy.py [--seeds 200-209] [--write | --rigs | --lenses]
 
 Rendered views: for 2 and for 3 cameras (``calibration_rig``: webcams 640x480
 with their own focal lengths, off-centre principal points and barrel
@@ -18,7 +18,12 @@ seeds given here. Each scene is solved three ways, timed in turn:
   intrinsic, camera pose and board pose; Huber loss; exact Jacobian).
 
 Errors are the worst over cameras (focal, principal point) and over camera
-pairs (baseline length, relative rotation). Every lens model on two-camera
+pairs (baseline length, relative rotation). Under the table, the information
+limit of each scene (Cramer-Rao bound): the chance that any unbiased fit of the
+same detected corners meets every target, at the corners' measured error
+against the true ones (the detector's own error is about 0.07 px RMS, the
+added noise 0.3 px); summed over the scenes, how many rigs even a perfect
+solver would be expected to bring within every target. Every lens model on two-camera
 renders (``lens_rig``): an ordinary lens that every model can describe, and a
 90-degree lens with rational distortion. Real pairs: every lens model on
 OpenCV's 13 stereo pairs, baseline in square lengths (Caltech's own: 3.327).
@@ -40,10 +45,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from stereotrack.calibration import CalibrationOptions, ViewSet, calibrate, views_from_frames, views_from_images  # noqa: E402
-from stereotrack.calibration.boards import Board, Detection  # noqa: E402
+from stereotrack.calibration.boards import Board, BoardDetector, Detection  # noqa: E402
 from stereotrack.camera import Camera, Rig  # noqa: E402
 from stereotrack.frames import FramePair  # noqa: E402
-from stereotrack.simulation.boards import calibration_rig, lens_rig, poses_seen_by_pairs, render_views  # noqa: E402
+from stereotrack.simulation.boards import BoardPose, calibration_rig, lens_rig, poses_seen_by_pairs, render_views  # noqa: E402
 
 BOARD = Board("chessboard", (9, 7), 0.03)
 N_VIEWS = 24
@@ -53,16 +58,21 @@ REAL = ROOT / "tests" / "data" / "opencv-stereo-chessboard"
 MARKERS = ("<!-- begin: benchmarks/calibration_accuracy.py -->", "<!-- end: benchmarks/calibration_accuracy.py -->")
 
 
-def rendered_scene(n_cams: int, seed: int) -> tuple[Rig, ViewSet]:
-    """A known rig and its detected board views, corners moved by the webcam-like noise."""
+def rendered_images(n_cams: int, seed: int) -> tuple[Rig, list[BoardPose], list[tuple[np.ndarray, ...]], np.random.Generator]:
+    """A known rig, the true board poses, their renders, and the generator as it is after rendering."""
     rng = np.random.default_rng(seed)
     rig = calibration_rig(n_cams, rng)
     poses = poses_seen_by_pairs(rig, BOARD, N_VIEWS, rng, min_tilt_deg=15.0, max_tilt_deg=45.0)
-    images = render_views(rig, BOARD, poses, rng)
+    return rig, poses, render_views(rig, BOARD, poses, rng), rng
+
+
+def rendered_scene(n_cams: int, seed: int) -> tuple[Rig, ViewSet, list[BoardPose]]:
+    """A known rig, its detected board views (corners moved by the webcam-like noise) and the true board poses."""
+    rig, poses, images, rng = rendered_images(n_cams, seed)
     views = views_from_frames(
         BOARD, [FramePair(i, v, (0.0,) * n_cams) for i, v in enumerate(images)], rig.names, min_new=0.0, progress=False
     )
-    return rig, with_corner_noise(views, NOISE_RMS_PX / np.sqrt(2), rng)
+    return rig, with_corner_noise(views, NOISE_RMS_PX / np.sqrt(2), rng), poses
 
 
 def with_corner_noise(views: ViewSet, sigma: float, rng: np.random.Generator) -> ViewSet:
@@ -84,6 +94,81 @@ def rig_errors(truth: Rig, est: Rig) -> dict[str, float]:
             dR = (est[j].R @ est[i].R.T) @ (truth[j].R @ truth[i].R.T).T
             rot = max(rot, float(np.degrees(np.linalg.norm(cv2.Rodrigues(dR)[0]))))
     return {"focal_pct": 100 * focal, "centre_px": centre, "baseline_pct": 100 * base, "rotation_deg": rot}
+
+
+def true_corners(cam: Camera, pose: BoardPose, det: Detection) -> tuple[np.ndarray, np.ndarray]:
+    """Where the detected corners truly are: their board ids and exact pixels. Chessboard labels may run
+    from either end of the board, so the numbering nearer the detected corners is taken."""
+    obj = BOARD.object_points()
+    ids = min((det.ids, BOARD.n_corners - 1 - det.ids), key=lambda i: np.abs(cam.project(pose.to_world(obj[i]))[0] - det.corners).mean())
+    return ids, cam.project(pose.to_world(obj[ids]))[0]
+
+
+def information_limit(truth: Rig, poses: list[BoardPose], views: ViewSet, seed: int) -> tuple[float, float]:
+    """The Cramer-Rao bound: how often any unbiased fit of these very corners would meet every target.
+
+    The joint fit's Jacobian at the true cameras and board poses, for the corners the detector found, and
+    the corners' measured error (detector and added noise together, px RMS) give the smallest covariance an
+    unbiased estimate can have; draws from it give the chance that the rig meets all four targets at once.
+    Returns (that chance, the measured corner error)."""
+    from stereotrack.calibration import bundle
+
+    obj, n_cams = BOARD.object_points(), len(truth)
+    poses = [poses[int(name.removeprefix("frame"))] for name in views.view_names]  # views_from_frames skips a pose seen by < 2 cameras
+    rows, errors = [], []
+    for v, row in enumerate(views.detections):
+        for c, d in enumerate(row):
+            if d is None:
+                continue
+            ids, px = true_corners(truth[c], poses[v], d)
+            rows.append((v, c, ids, px))
+            errors.append(d.corners - px)
+    sigma = float(np.sqrt(np.mean(np.concatenate(errors) ** 2)))  # per axis
+    corners = bundle.Corners(*(np.concatenate(a) for a in ([np.full(len(i), v) for v, _, i, _ in rows],
+                             [np.full(len(i), c) for _, c, i, _ in rows], [obj[i] for _, _, i, _ in rows], [p for *_, p in rows])))  # fmt: skip
+    # the truth in the fit's terms: camera 0's frame is the world
+    intrinsics = np.zeros((n_cams, bundle.N_INTR))
+    for c, cam in enumerate(truth.cameras):
+        intrinsics[c, :4] = cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2]
+        intrinsics[c, 4 : 4 + len(cam.dist)] = cam.dist
+    R0, t0 = truth[0].R, truth[0].t
+    relative = [(cam.R @ R0.T, cam.t - cam.R @ R0.T @ t0) for cam in truth.cameras]
+    cam_poses = np.array([np.r_[cv2.Rodrigues(R)[0].ravel(), t] for R, t in relative])
+    board_poses = np.array([np.r_[cv2.Rodrigues(R0 @ p.R)[0].ravel(), R0 @ p.t + t0] for p in poses])
+    problem = bundle.Problem(corners, n_cams, views.n_views, bundle.LensModel(), intrinsics)
+    x = problem.pack(intrinsics, cam_poses, board_poses)
+    pairs = [(i, j) for i in range(n_cams) for j in range(i + 1, n_cams)]
+
+    def target_errors(x: np.ndarray) -> np.ndarray:  # in the targets' units, zero at the truth
+        intr, cams, _ = problem.unpack(x)
+        Rs = [cv2.Rodrigues(p[:3])[0] for p in cams]
+        centres = [-R.T @ p[3:] for R, p in zip(Rs, cams)]
+        out = [100 * (intr[:, :2] / intrinsics[:, :2] - 1), intr[:, 2:4] - intrinsics[:, 2:4]]
+        for i, j in pairs:
+            out.append([100 * (np.linalg.norm(centres[i] - centres[j]) / truth.baseline(i, j) - 1)])
+            dR = (Rs[j] @ Rs[i].T) @ (relative[j][0] @ relative[i][0].T).T
+            # the rotation vector of dR to first order (cv2.Rodrigues returns zero below 1e-5 rad)
+            out.append(np.degrees([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]]) / 2)
+        return np.concatenate([np.ravel(o) for o in out])
+
+    J = problem.jacobian(x)
+    covariance = np.linalg.inv(J.T @ J) * sigma**2
+    G = np.zeros((len(target_errors(x)), len(x)))
+    for k in range(len(x)):
+        h = 1e-6 * max(1.0, abs(x[k]))
+        dx = np.zeros_like(x)
+        dx[k] = h
+        G[:, k] = (target_errors(x + dx) - target_errors(x - dx)) / (2 * h)
+    draws = np.random.default_rng(seed).multivariate_normal(np.zeros(len(G)), G @ covariance @ G.T, 20000)
+    n = 2 * n_cams
+    per_pair = draws[:, 2 * n :].reshape(len(draws), len(pairs), 4)
+    worst = {
+        "focal_pct": np.abs(draws[:, :n]).max(1),
+        "centre_px": np.abs(draws[:, n : 2 * n]).max(1),
+        "baseline_pct": np.abs(per_pair[:, :, 0]).max(1),
+        "rotation_deg": np.linalg.norm(per_pair[:, :, 1:], axis=2).max(1),
+    }
+    return float(np.mean(np.all([worst[k] <= TARGETS[k] for k in TARGETS], axis=0))), sigma * np.sqrt(2)
 
 
 def opencv_multiview(views: ViewSet, detections) -> Rig:
@@ -148,18 +233,22 @@ def rendered_table(seeds: list[int]) -> str:
         f"| worst baseline, % ({TARGETS['baseline_pct']}) | worst rotation, deg ({TARGETS['rotation_deg']}) | scenes meeting all | time, s |",
         "|---:|---|---:|---:|---:|---:|---:|---:|",
     ]
-    sds = []
+    sds, limits = [], []
     for n_cams in (2, 3):
         results: dict[str, list] = {}
-        own = []
+        own, chances, noise = [], [], []
         for seed in seeds:
-            truth, views = rendered_scene(n_cams, seed)
+            truth, views, poses = rendered_scene(n_cams, seed)
             solved, uncertainty = solve_all(truth, views)
             own.append(uncertainty)
+            chance, corner_rms = information_limit(truth, poses, views, seed)
+            chances.append(chance)
+            noise.append(corner_rms)
             for method, (errors, seconds) in solved.items():
                 results.setdefault(method, []).append((errors, seconds))
             print(f"  {n_cams} cameras, seed {seed}: " + "; ".join(
-                f"{m} " + " ".join(f"{v:.3f}" for v in r[-1][0].values()) for m, r in results.items()), file=sys.stderr, flush=True)  # fmt: skip
+                f"{m} " + " ".join(f"{v:.3f}" for v in r[-1][0].values()) for m, r in results.items())
+                + f"; corners {corner_rms:.3f} px RMS, chance an unbiased fit meets all {chance:.2f}", file=sys.stderr, flush=True)  # fmt: skip
         for method, rows in results.items():
             errs = {k: np.array([r[0][k] for r in rows]) for k in TARGETS}
             meets = sum(all(r[0][k] <= TARGETS[k] for k in TARGETS) for r in rows)
@@ -171,12 +260,96 @@ def rendered_table(seeds: list[int]) -> str:
             f"{n_cams} cameras: focal {np.median([u['focal_pct'] for u in own]):.3f} %, centre {np.median([u['centre_px'] for u in own]):.2f} px, "
             f"baseline {np.median([u['baseline_pct'] for u in own]):.3f} %"
         )
+        limits.append(
+            f"{n_cams} cameras: {sum(chances):.1f} of {len(chances)} expected (all {len(chances)}: chance {np.prod(chances):.2f}; "
+            f"the least likely rig, seed {seeds[int(np.argmin(chances))]}: {min(chances):.2f}; corner error {np.median(noise):.3f} px RMS)"
+        )
     lines.append("")
     lines.append(
         "The joint fit's own standard deviations (from its covariance, worst camera or pair, median over the scenes): "
         + "; ".join(sds)
         + "."
     )
+    lines.append("")
+    lines.append(
+        "The information limit (Cramer-Rao bound: the spread any unbiased fit of the same detected corners has, at their measured "
+        "error against the true corners; rigs meeting all targets): " + "; ".join(limits) + "."
+    )
+    return "\n".join(lines)
+
+
+def _sb_detector(flags: int, subpix: bool = False):
+    refine = BoardDetector(BOARD)
+
+    def detect(image: np.ndarray) -> Detection | None:
+        found, corners = cv2.findChessboardCornersSB(image, BOARD.inner, flags=flags)
+        if not found:
+            return None
+        corners = corners.reshape(-1, 1, 2).astype(np.float32)
+        if subpix:
+            refine._refine(image, corners)
+        return Detection(np.arange(BOARD.n_corners), corners.reshape(-1, 2).astype(np.float64))
+
+    return detect
+
+
+def detector_table(seeds: list[int]) -> str:
+    """Ways to find the chessboard's corners, against the true corners of two-camera renders, and what a perfect
+    detector would change: the joint fit from the detected corners and from the true ones, the same noise added."""
+    normal = cv2.CALIB_CB_NORMALIZE_IMAGE
+    detectors = {
+        "findChessboardCorners + cornerSubPix, window 1/4 of the corner spacing (the default)": BoardDetector(BOARD).detect,
+        "the same, window 3 px": BoardDetector(BOARD, 3).detect,
+        "the same, window 5 px": BoardDetector(BOARD, 5).detect,
+        "the same, window 7 px": BoardDetector(BOARD, 7).detect,
+        "findChessboardCornersSB": _sb_detector(normal),
+        "findChessboardCornersSB, CALIB_CB_ACCURACY": _sb_detector(normal | cv2.CALIB_CB_ACCURACY),
+        "findChessboardCornersSB + cornerSubPix as the default": _sb_detector(normal, subpix=True),
+    }
+    found = dict.fromkeys(detectors, 0)
+    errors: dict[str, list] = {k: [] for k in detectors}
+    seconds = dict.fromkeys(detectors, 0.0)
+    n_images = 0
+    fits: dict[str, list] = {"detected corners": [], "true corners": []}
+    for seed in seeds:
+        rig, poses, images, rng = rendered_images(2, seed)
+        n_images += 2 * len(images)
+        for name, detect in detectors.items():
+            for pose, row in zip(poses, images):
+                for cam, image in zip(rig.cameras, row):
+                    t = time.perf_counter()
+                    d = detect(image)
+                    seconds[name] += time.perf_counter() - t
+                    if d is not None:
+                        found[name] += 1
+                        errors[name].append(d.corners - true_corners(cam, pose, d)[1])
+        frames = [FramePair(i, v, (0.0, 0.0)) for i, v in enumerate(images)]
+        views = views_from_frames(BOARD, frames, rig.names, min_new=0.0, progress=False)
+        exact = [[None if d is None else Detection(d.ids, true_corners(cam, poses[int(n[5:])], d)[1]) for d, cam in zip(row, rig.cameras)]
+                 for n, row in zip(views.view_names, views.detections)]  # fmt: skip
+        state = rng.bit_generator.state  # the same noise on both
+        for label, rows in (("detected corners", views.detections), ("true corners", exact)):
+            rng.bit_generator.state = state
+            noisy = with_corner_noise(ViewSet(views.camera_names, views.image_sizes, views.view_names, tuple(map(tuple, rows))),
+                                      NOISE_RMS_PX / np.sqrt(2), rng)  # fmt: skip
+            fits[label].append(rig_errors(rig, calibrate(noisy, BOARD).rig))
+        print(
+            f"  detectors, seed {seed}: " + "; ".join(f"{k} {v[-1]['rotation_deg']:.3f} deg" for k, v in fits.items()),
+            file=sys.stderr,
+            flush=True,
+        )
+    lines = [f"| 2 cameras, seeds {seeds[0]}-{seeds[-1]}, {n_images} images | boards found | corner error, px RMS | 99th percentile | worst | ms per image |",
+             "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
+    for name in detectors:
+        r = np.linalg.norm(np.concatenate(errors[name]), axis=1)
+        lines.append(f"| {name} | {found[name]} | {np.sqrt(np.mean(r**2)):.3f} | {np.percentile(r, 99):.3f} | {r.max():.2f} "
+                     f"| {1000 * seconds[name] / n_images:.0f} |")  # fmt: skip
+    lines += ["", "| joint fit, corners noise 0.3 px RMS added | " + " | ".join(f"worst {k}, median / worst" for k in TARGETS) + " | scenes meeting all |",
+              "|---|" + "---:|" * (len(TARGETS) + 1)]  # fmt: skip
+    for label, rows in fits.items():
+        cells = [f"{np.median([r[k] for r in rows]):.3f} / {max(r[k] for r in rows):.3f}" for k in TARGETS]
+        meets = sum(all(r[k] <= TARGETS[k] for k in TARGETS) for r in rows)
+        lines.append(f"| {label} | " + " | ".join(cells) + f" | {meets} of {len(rows)} |")
     return "\n".join(lines)
 
 
@@ -246,7 +419,7 @@ def solver_table(seed: int) -> str:
 
     from stereotrack.calibration import bundle, solve
 
-    truth, views = rendered_scene(3, seed)
+    truth, views, _ = rendered_scene(3, seed)
     start = solve.starting_point(views, BOARD, CalibrationOptions())  # what the command starts the joint fit from
     corners, n_cams = start.corners, len(views.camera_names)
     problem = bundle.Problem(corners, n_cams, views.n_views, start.model, start.x[0])
@@ -307,14 +480,22 @@ def main() -> None:
     parser.add_argument("--seeds", default="200-209", help="rendered scenes to measure on (default 200-209)")
     parser.add_argument("--write", action="store_true", help="write the tables into README.md between the markers")
     parser.add_argument("--lenses", action="store_true", help="only the lens-model table (on --seeds)")
+    parser.add_argument("--rigs", action="store_true", help="only the 2- and 3-camera rig table (on --seeds)")
+    parser.add_argument("--detectors", metavar="SEEDS", help="compare corner detectors on these 2-camera scenes (tune seeds, e.g. 0-9)")
     parser.add_argument("--solvers", type=int, metavar="SEED", help="only compare ways to set up least_squares on this 3-camera scene")
     args = parser.parse_args()
     if args.solvers is not None:
         print(solver_table(args.solvers))
         return
+    if args.detectors is not None:
+        print(detector_table(parse_seeds(args.detectors)))
+        return
     seeds = parse_seeds(args.seeds)
     if args.lenses:
         print(lens_table(seeds))
+        return
+    if args.rigs:
+        print(rendered_table(seeds))
         return
     text = (
         f"Rendered views, seeds {seeds[0]}-{seeds[-1]} ({len(seeds)} rigs per row), {N_VIEWS} board poses, corner noise "
