@@ -112,7 +112,7 @@ class BaselineTracker:
         targets = self.config.targets
         masks = {}
         for cam, image in zip(self.rig.cameras[:2], frame.images[:2]):
-            cm = camera_masks(cam.name, image, targets)
+            cm = camera_masks(cam.name, image, targets, integrals=False)  # blobs only: no summed-area tables
             for name, mask in cm.masks.items():
                 masks[(name, cam.name)] = mask
         t1 = _time.perf_counter()
