@@ -74,6 +74,13 @@ class TrackerSettings:
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )
+    evidence_scale: int = setting(
+        0,
+        "build each camera's evidence on a grid this many times coarser than its images (1 = every pixel); 0 = automatic: "
+        "2 for images 1280 pixels wide or more with the ball_shape likelihood (a ball spans many pixels there), else 1",
+        low=0,
+        high=8,
+    )
     threads: int = setting(
         1,
         "threads that build the cameras' evidence side by side: 1 = none, 0 = one per camera up to the machine's cores "

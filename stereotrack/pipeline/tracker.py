@@ -19,7 +19,7 @@ from ..config import Config, Target
 from ..errors import StereotrackError
 from ..evidence.colour import camera_masks
 from ..evidence.colour_model import ColourModel, load_colour_model
-from ..evidence.gather import CameraEvidence
+from ..evidence.gather import CameraEvidence, every_nth, on_grid
 from ..evidence.motion import BackgroundModel
 from ..frames import FramePair
 from ..kernels import KERNELS
@@ -52,7 +52,13 @@ class Tracker:
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.identities = TrackManager(config.tracks, rig)
         self.radius = {t.name: t.radius for t in config.targets}
-        self.backgrounds = [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in rig.cameras] if s.motion else None
+        # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
+        # reads that grid's image too (and keeps half its size, motion.py).
+        self.scales = [evidence_scale(s, cam) for cam in rig.cameras]
+        self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
+        self.backgrounds = (
+            [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
+        )
         self.colour_models = (
             {
                 t.name: [ColourModel.for_target(t, load_colour_model(t.colour_model) if t.colour_model else None) for _ in rig.cameras]
@@ -119,7 +125,11 @@ class Tracker:
         timings["tracks"] = 1e3 * (t5 - t4)
         timings["step"] = 1e3 * (t5 - t0)
         shown_rays = (
-            tuple(Rays(name, v.camera.name, v.origins, v.directions, v.blobs.centres) for name, vs in views.items() for v in vs)
+            tuple(
+                Rays(name, v.camera.name, v.origins, v.directions, v.blobs.centres * k)  # full-size pixels
+                for name, vs in views.items()
+                for v, k in zip(vs, self.scales)
+            )
             if self.keep_rays
             else ()
         )
@@ -139,11 +149,12 @@ class Tracker:
     def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls):
         """Camera j's masks, and every target's evidence in it; with the ms each half took."""
         s = self.config.tracker
-        cam = self.rig.cameras[j]
+        cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
+        small = every_nth(image, k)
         # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
-        cm = camera_masks(cam.name, image, self.config.targets, integrals=False)
-        foreground = self.backgrounds[j].update(image, balls) if self.backgrounds else None
+        cm = camera_masks(cam.name, small, self.config.targets, integrals=False)
+        foreground = self.backgrounds[j].update(small, balls) if self.backgrounds else None
         t1 = time.perf_counter()
         views = {
             t.name: CameraEvidence.from_mask(
@@ -151,7 +162,7 @@ class Tracker:
                 cm.masks[t.name],
                 None,
                 s.blob_method,
-                s.min_blob_area,
+                max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
                 foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
@@ -168,11 +179,18 @@ class Tracker:
             return None
         model = self.colour_models[target.name][j]
         table = model.table(cm.hsv)
-        cam = self.rig.cameras[j]
+        cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
         return table
+
+
+def evidence_scale(s, camera: Camera) -> int:
+    """How many image pixels a side of one evidence cell spans in this camera (TrackerSettings.evidence_scale)."""
+    if s.evidence_scale:
+        return s.evidence_scale
+    return 2 if camera.width >= 1280 and s.likelihood == "ball_shape" else 1
 
 
 class _InThisThread:
