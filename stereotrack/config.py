@@ -77,7 +77,8 @@ class TrackerSettings:
     evidence_scale: int = setting(
         0,
         "build each camera's evidence on a grid this many times coarser than its images (1 = every pixel); 0 = automatic: "
-        "2 for images 1280 pixels wide or more with the ball_shape likelihood (a ball spans many pixels there), else 1",
+        "2 for images 1280 pixels wide or more where the smallest ball at d_max still spans 5 pixels of radius, with the "
+        "ball_shape likelihood; else 1",
         low=0,
         high=8,
     )

@@ -54,7 +54,8 @@ class Tracker:
         self.radius = {t.name: t.radius for t in config.targets}
         # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
         # reads that grid's image too (and keeps half its size, motion.py).
-        self.scales = [evidence_scale(s, cam) for cam in rig.cameras]
+        smallest = min(t.radius for t in config.targets)
+        self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
         self.backgrounds = (
             [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
@@ -186,11 +187,18 @@ class Tracker:
         return table
 
 
-def evidence_scale(s, camera: Camera) -> int:
-    """How many image pixels a side of one evidence cell spans in this camera (TrackerSettings.evidence_scale)."""
+HALF_GRID_MIN_WIDTH = 1280  # automatic evidence_scale: images this wide or wider ...
+HALF_GRID_MIN_RADIUS_PX = 5.0  # ... where the smallest ball at d_max spans at least this radius (full-size pixels)
+
+
+def evidence_scale(s, camera: Camera, radius: float) -> int:
+    """How many image pixels a side of one evidence cell spans in this camera (TrackerSettings.evidence_scale);
+    ``radius``: the smallest target's, metres. Automatic: every other pixel where even that ball at the farthest
+    depth looks large (a small or far ball, a few pixels wide, keeps every pixel)."""
     if s.evidence_scale:
         return s.evidence_scale
-    return 2 if camera.width >= 1280 and s.likelihood == "ball_shape" else 1
+    large = camera.focal_px * radius / s.d_max >= HALF_GRID_MIN_RADIUS_PX
+    return 2 if camera.width >= HALF_GRID_MIN_WIDTH and large and s.likelihood == "ball_shape" else 1
 
 
 class _InThisThread:

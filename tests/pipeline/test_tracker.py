@@ -81,6 +81,16 @@ def test_the_evidence_grid_camera_sees_points_where_the_grid_picks_their_pixels(
     assert on_grid(cam, 1) is cam
 
 
+def test_small_or_far_balls_keep_every_pixel():
+    """The half-size grid only where even the smallest ball at d_max spans several pixels."""
+    spec = make_preset("pendulum4", n_frames=2, width=1280, height=720)
+    rig, config = SceneRenderer(spec).rig, spec.config()
+    assert Tracker(rig, config).scales == [2, 2]
+    far = config_from_dict({**config_to_dict(config), "tracker": {"d_max": 25.0}})
+    assert Tracker(rig, far).scales == [1, 1]
+    assert Tracker(SceneRenderer(make_preset("pendulum4", n_frames=2)).rig, config).scales == [1, 1]  # 640x480
+
+
 def test_pendulum4_detection_and_accuracy():
     """The tracker issue's targets, after the 3 frames a new track needs to be confirmed. The first 150
     frames hold balls merged into one blob in one view, in both views, and hidden behind another."""
