@@ -253,7 +253,7 @@ def replay_cpu(folder: Path) -> None:
     tracker = Tracker(rec.rig, resolve_config(rec, None))
     source = RecordingSource(rec)
     cpu, main, wall = time.process_time(), time.thread_time(), time.perf_counter()
-    summary = run_pipeline(source, tracker, [TracksCsvSink(folder.parent / "cpu.csv")], progress=False)
+    summary = run_pipeline(source, tracker, [TracksCsvSink(folder.parent / "cpu.csv")], progress=False, ahead=True)  # as `track` does
     cpu, main, wall = time.process_time() - cpu, time.thread_time() - main, time.perf_counter() - wall
     source.close()
     n, cores = summary.frames, os.cpu_count() or 1

@@ -72,7 +72,19 @@ class Tracker:
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
-    def step(self, pair: FramePair) -> FrameResult:
+    def colours(self, images) -> list:
+        """Per camera: the image on its evidence grid and that image's HSV and range masks. The step's first part,
+        and nothing the tracks hold changes it: a caller with the next pair at hand may make it ahead, in another
+        thread (pipeline/run.py), and give it to ``step``."""
+        return [self._colours(j, image) for j, image in enumerate(images)]
+
+    def _colours(self, j: int, image: np.ndarray):
+        small = every_nth(image, self.scales[j])
+        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
+        return small, camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
+
+    def step(self, pair: FramePair, colours: list | None = None) -> FrameResult:
+        """Track one pair; ``colours``: the pair's ``colours(pair.images)``, when it was made ahead."""
         self.rig.check_images(pair.images)
         s = self.config.tracker
         now = pair.time
@@ -88,9 +100,8 @@ class Tracker:
         # Each camera's evidence, once: its masks, then each target's blobs and their viewing rays, read by
         # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
         # parts release the GIL).
-        per_camera = list(
-            self._pool.map(self._camera_evidence, range(len(cams)), pair.images, [balls] * len(cams), [confirmed] * len(cams))
-        )
+        n = len(cams)
+        per_camera = list(self._pool.map(self._camera_evidence, range(n), pair.images, [balls] * n, [confirmed] * n, colours or [None] * n))
         cmasks = [cm for cm, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
         for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
@@ -147,14 +158,12 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls):
-        """Camera j's masks, and every target's evidence in it; with the ms each half took."""
+    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls, colours=None):
+        """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took."""
         s = self.config.tracker
         cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
-        small = every_nth(image, k)
-        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
-        cm = camera_masks(cam.name, small, self.config.targets, integrals=False)
+        small, cm = colours if colours is not None else self._colours(j, image)
         foreground = self.backgrounds[j].update(small, balls) if self.backgrounds else None
         t1 = time.perf_counter()
         views = {
