@@ -237,7 +237,7 @@ def record(seconds: float = 60.0, live: bool = False) -> None:
 
 def replay_cpu(folder: Path) -> None:
     """Replay in this process as `track --all-frames` does, and split its CPU time per frame: the tracker's thread
-    (the step and the sinks) and the decoding threads. On a machine nobody else uses, the run cannot be faster than
+    (the step and the sinks) and the others (decoding, the next pair's colour masks). On a machine nobody else uses, the run cannot be faster than
     either the tracker's thread or the whole CPU time shared by the cores: a bound that load does not move much,
     where the frames/s above follow the load."""
     import os
@@ -260,7 +260,7 @@ def replay_cpu(folder: Path) -> None:
     per = lambda x: 1e3 * x / n  # noqa: E731
     bound = 1e3 / max(per(main), per(cpu) / cores)
     print(
-        f"replay CPU per frame: tracker thread {per(main):.1f} ms, decoding threads {per(cpu - main):.1f} ms "
+        f"replay CPU per frame: tracker thread {per(main):.1f} ms, other threads (decoding; the next pair's colour masks) {per(cpu - main):.1f} ms "
         f"({n / wall:.1f} frames/s here, load average {os.getloadavg()[0]:.1f}): at most {bound:.0f} frames/s on {cores} idle cores"
     )
 
