@@ -42,8 +42,17 @@ class Tracker:
         self.rig = rig
         self.config = config
         self.keep_rays = keep_rays
-        warm_up()  # compile (first run on a machine) or load the kernels now, not in the first frame
         s = config.tracker
+        # the user's files first: a damaged colour model is refused before the (slow) kernel warm-up
+        self.colour_models = (
+            {
+                t.name: [ColourModel.for_target(t, load_colour_model(t.colour_model) if t.colour_model else None) for _ in rig.cameras]
+                for t in config.targets
+            }
+            if s.colour_model
+            else None
+        )
+        warm_up()  # compile (first run on a machine) or load the kernels now, not in the first frame
         root = np.random.default_rng(s.seed)
         self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
         self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
@@ -59,14 +68,6 @@ class Tracker:
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
         self.backgrounds = (
             [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
-        )
-        self.colour_models = (
-            {
-                t.name: [ColourModel.for_target(t, load_colour_model(t.colour_model) if t.colour_model else None) for _ in rig.cameras]
-                for t in config.targets
-            }
-            if s.colour_model
-            else None
         )
         self.last_time: float | None = None
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
