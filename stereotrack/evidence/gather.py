@@ -73,6 +73,7 @@ class CameraEvidence:
         ball: tuple[float, float, float] | None = None,
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
+        background_hsv: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -80,7 +81,9 @@ class CameraEvidence:
         could be such a ball seed particles (``blobs.ball_like``). With the colour model's ``colour_table``
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
-        kept too; the moving map still takes the whole range (a ball moving in front of its own colour).
+        kept too; the moving map still takes the whole range (a ball moving in front of its own colour), but with
+        the background in HSV (``background_hsv``, on the foreground's grid) only the pixels at least as likely the
+        ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
         soft_integral = moving = moving_integral = sure = None
@@ -103,6 +106,7 @@ class CameraEvidence:
                 moving if moving is not None else _NO_TABLE,
                 sure if sure is not None else _NO_TABLE,
                 SURE,
+                background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)

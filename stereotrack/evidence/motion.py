@@ -41,6 +41,7 @@ class BackgroundModel:
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
         self._frames = 0  # frames learnt so far (the warm-up's running mean)
+        self.hsv: np.ndarray | None = None  # the background in HSV (uint8, its grid) as it was before the last frame learnt
 
     def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
         """This frame's foreground at the image's size (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
@@ -63,6 +64,7 @@ class BackgroundModel:
                 if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
         moving = np.empty(learn.shape, np.uint8)
+        self.hsv = cv2.cvtColor(cv2.convertScaleAbs(self._background), cv2.COLOR_BGR2HSV)  # what the moving pixels replaced
         background_step(image, self._background, learn, max(self.rate, 1.0 / (self._frames + 1)), self.threshold, moving)
         self._frames += 1
         return moving
