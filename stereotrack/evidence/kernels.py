@@ -86,31 +86,44 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
-def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, soft, mask, moving):
+def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, soft, mask, moving, sure, sure_level, behind):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
 
     - with a colour ``table`` (p(ball | colour) x 255 per hue-saturation bin; empty: no colour model) the
       ``soft`` map, p inside the range, and ``mask`` = soft > 127 (what OpenCV's back-projection, a masked
-      AND and a threshold give, in one pass that reads only pixels in range);
+      AND and a threshold give, in one pass that reads only pixels in range), and (``sure`` not empty)
+      ``sure`` = soft > ``sure_level``;
     - with a ``foreground`` map (empty: no motion; pixel (x, y) reads foreground[fg_rows[y], fg_cols[x]],
-      nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground.
+      nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground; with the
+      table and the background in HSV (``behind``, on the foreground's grid; empty: none), only where the pixel is
+      at least as likely the ball's colour as what the background held there (where a ball was and a wall of its
+      hue is now, the wall moved in no sense).
     Rows with no pixel in range (``rows_in_range`` 0; most rows: the range is a few balls) are passed over."""
     h, w = in_range.shape
     use_table = table.shape[0] > 0
     use_fg = foreground.shape[0] > 0
+    use_sure = sure.shape[0] > 0
+    use_behind = use_table and use_fg and behind.shape[0] > 0
     for y in range(h):
         if not rows_in_range[y]:
             continue
         fy = fg_rows[y] if use_fg else 0
         for x in range(w):
             if in_range[y, x]:
+                p = 0
                 if use_table:
                     p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
                     soft[y, x] = p
                     mask[y, x] = 1 if p > 127 else 0
+                    if use_sure:
+                        sure[y, x] = 1 if p > sure_level else 0
                 if use_fg:
-                    moving[y, x] = 1 if foreground[fy, fg_cols[x]] else 0
+                    fx = fg_cols[x]
+                    moves = foreground[fy, fx] != 0
+                    if moves and use_behind:
+                        moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
+                    moving[y, x] = 1 if moves else 0
 
 
 @kernel

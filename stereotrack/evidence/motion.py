@@ -9,6 +9,14 @@ differs from the background by more than ``threshold`` grey levels, summed
 over its three channels. The first frame starts the background, so nothing is foreground in
 it: motion adds evidence (a ball moving in front of a wall of its own
 colour), it never takes colour evidence away.
+
+The first frame holds the balls too: where one was, the background is the
+ball until learnt away, and once it has moved on, a wall of its colour there
+differs from it: a "ghost" ball in the moving map. A track that forms on the
+ghost keeps it out of the update, and the ghost lasts for ever. So the
+background starts as the mean of the frames seen so far (rate 1 / (n + 1) at
+the n-th frame, down to ``rate``; OpenCV's MOG2 starts the same way): a
+ball's first position fades within a few frames, before a track confirms.
 """
 
 from __future__ import annotations
@@ -32,6 +40,8 @@ class BackgroundModel:
         self.rate = rate  # weight of each new frame in the running average (1 / frames it takes to learn a change)
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
+        self._frames = 0  # frames learnt so far (the warm-up's running mean)
+        self.hsv: np.ndarray | None = None  # the background in HSV (uint8, its grid) as it was before the last frame learnt
 
     def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
         """This frame's foreground at the image's size (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
@@ -44,6 +54,7 @@ class BackgroundModel:
         h, w = image.shape[:2]
         if self._background is None:
             self._background = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA).astype(np.float32)
+            self._frames = 1
             return np.zeros(self._background.shape[:2], np.uint8)
         learn = np.ones(self._background.shape[:2], np.uint8)
         if balls is not None and len(balls):
@@ -53,5 +64,7 @@ class BackgroundModel:
                 if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
         moving = np.empty(learn.shape, np.uint8)
-        background_step(image, self._background, learn, self.rate, self.threshold, moving)
+        self.hsv = cv2.cvtColor(cv2.convertScaleAbs(self._background), cv2.COLOR_BGR2HSV)  # what the moving pixels replaced
+        background_step(image, self._background, learn, max(self.rate, 1.0 / (self._frames + 1)), self.threshold, moving)
+        self._frames += 1
         return moving

@@ -178,6 +178,7 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
+                self.backgrounds[j].hsv if self.backgrounds else None,
             )
             for t in self.config.targets
         }

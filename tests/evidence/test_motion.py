@@ -49,3 +49,18 @@ def test_a_tracked_ball_at_rest_stays_foreground_an_untracked_one_fades():
         for _ in range(120):  # 4 s at rest
             fg = bg.foreground(frame(cam, ball, wall=False), balls)
         assert bool(fg[uv[1], uv[0]]) == stays
+
+
+def test_where_a_ball_was_in_the_first_frame_leaves_no_ghost_a_track_could_keep():
+    """The first frame starts the background with the balls in it. A ball that then moves on leaves its old
+    place looking different from the background (a wall of its colour, where the background holds the ball):
+    a ghost. A false track that forms there keeps the place out of the update; the ghost must fade first."""
+    cam = default_rig().cameras[0]
+    first, later = np.array([0.3, 1.5, 0.0]), np.array([0.55, 1.5, 0.1])  # both in front of the wall
+    ghost = TrackedBalls(first[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]))
+    u, v = cam.project(first[None])[0][0].astype(int)
+    bg = BackgroundModel(cam, rate=0.05, threshold=30)
+    bg.foreground(frame(cam, first))
+    for i in range(1, 40):  # the ball moved on at once; a track holds its first place from the 5th frame on
+        fg = bg.foreground(frame(cam, later), ghost if i >= 5 else None)
+    assert fg[v - 2 : v + 3, u - 2 : u + 3].sum() == 0
