@@ -156,6 +156,7 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
+                cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
         }
