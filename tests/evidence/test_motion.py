@@ -80,3 +80,40 @@ def test_a_flickering_light_is_not_motion():
         fg = bg.foreground(np.clip(base * gain + rng.normal(0, 3, base.shape), 0, 255).astype(np.uint8))
         shares.append(fg.mean())
     assert max(shares) < 0.01
+
+
+def test_a_white_ball_moving_on_a_white_wall_is_a_whole_disc_in_the_moving_map_and_a_blob():
+    """A white ball's range (low saturation, high value) takes in the whole white wall, and its shaded side is
+    grey, below the value typed for it. Its moving map takes any value below the range's top (a target of every
+    hue), so the ball's whole disc is there; and its blob is one explain-away looks up (the colour mask, after
+    the colour model, may hold nothing of it)."""
+    from stereotrack.config import Target
+    from stereotrack.evidence.colour import camera_masks
+    from stereotrack.evidence.gather import CameraEvidence
+
+    cam = default_rig().cameras[0]
+    white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
+    assert white.any_hue
+    bg = BackgroundModel(cam, rate=0.05, threshold=30)
+    rng = np.random.default_rng(5)
+
+    def shot(x):
+        img = np.clip(np.full((cam.height, cam.width, 3), 215.0) + rng.normal(0, 2, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
+        cv2.circle(img, (x, 200), 14, (120, 120, 120), -1)  # the shaded side, grey
+        cv2.ellipse(img, (x, 200), (14, 14), 0, 180, 360, (245, 245, 245), -1)  # the lit top, whiter than the wall
+        return img
+
+    for x in range(100, 300, 10):
+        fg = bg.update(shot(x))
+    image = shot(310)
+    fg = bg.update(image)
+    cm = camera_masks(cam.name, image, (white,), integrals=False)
+    empty = np.zeros_like(cm.masks["white"])  # what the colour model leaves of a white wall's range
+    view = CameraEvidence.from_mask(cam, empty, foreground=fg, motion_range=cm.motion_ranges["white"])
+    yy, xx = np.mgrid[: cam.height, : cam.width]
+    disc = (xx - 310) ** 2 + (yy - 200) ** 2 <= 12**2
+    assert view.moving[disc].mean() > 0.9  # the grey half too
+    biggest = int(np.argmax(view.blobs.areas))  # (and specks of the trail the background half learnt)
+    assert np.hypot(*(view.blobs.centres[biggest] - (310, 200))) < 3
+    typed = CameraEvidence.from_mask(cam, cm.masks["white"], foreground=fg)  # moving AND the typed range: the lit half only
+    assert typed.moving[disc].mean() < 0.6
