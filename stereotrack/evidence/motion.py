@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from ..camera import Camera
 from ..results import TrackedBalls
@@ -25,7 +24,8 @@ SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
 TRAVEL = 2.0  # a track keeps its disc out of the background once it has gone this many ball radii from where it started
 ABSORB_FRAMES = 6  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
-GAIN_STEP = 4  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
+MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
+GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
 
 
 class BackgroundModel:
@@ -73,11 +73,14 @@ class BackgroundModel:
         """Learn at once the moving patches none of whose cells has changed for ABSORB_FRAMES frames: a ghost
         (the room a ball uncovered, which the background still holds the ball in front of) or a thing that
         stopped, untracked. A moving thing's patch changes at its edges, a tracked ball's is kept out (``learn``)."""
-        if not (moving.any() and (self._calm[moving > 0] >= ABSORB_FRAMES).any()):
+        calm = self._calm >= ABSORB_FRAMES
+        if np.count_nonzero(cv2.bitwise_and(moving, calm.view(np.uint8))) < MIN_GHOST_CELLS:
             return
         n, labels = cv2.connectedComponents(moving, connectivity=8)
-        calmest = ndimage.minimum(self._calm, labels, np.arange(1, n))
-        still = np.r_[False, np.asarray(calmest) >= ABSORB_FRAMES][labels] & (learn > 0)
+        changing = np.zeros(n, bool)
+        changing[0] = True  # the label of what does not move
+        changing[labels[(moving > 0) & ~calm]] = True  # a patch with a cell that changed lately is a thing that moves
+        still = ~changing[labels] & (learn > 0)
         self._background[still] = self._previous[still]
         moving[still] = 0
 
