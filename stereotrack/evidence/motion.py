@@ -23,7 +23,7 @@ from .kernels import background_step
 SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
 TRAVEL = 2.0  # a track keeps its disc out of the background once it has gone this many ball radii from where it started ...
-SETTLED_FRAMES = 10  # ... or once it has lived this many frames (a ghost under it is learnt by then: ABSORB_FRAMES)
+SETTLED_FRAMES = 8  # ... or once it has lived this many frames (a ghost under it is learnt by then: ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
 ABSORB_FRAMES = 6  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
@@ -113,7 +113,11 @@ class BackgroundModel:
         dims or flickers, or a camera's exposure that hunts, changes them all)."""
         then = self._background[::GAIN_STEP, ::GAIN_STEP]
         rows, cols = then.shape[:2]
-        now = image[: SCALE * GAIN_STEP * rows : SCALE * GAIN_STEP, : SCALE * GAIN_STEP * cols : SCALE * GAIN_STEP].reshape(-1, 3).astype(np.float32)
+        now = (
+            image[: SCALE * GAIN_STEP * rows : SCALE * GAIN_STEP, : SCALE * GAIN_STEP * cols : SCALE * GAIN_STEP]
+            .reshape(-1, 3)
+            .astype(np.float32)
+        )
         then = then.reshape(-1, 3)
         ok = (now > 20) & (now < 250) & (then > 20)
         gain = np.ones(3, np.float32)
