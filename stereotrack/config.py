@@ -79,6 +79,14 @@ class TrackerSettings:
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )
+    evidence_scale: int = setting(
+        0,
+        "build each camera's evidence on a grid this many times coarser than its images (1 = every pixel); 0 = automatic: "
+        "2 for images 1280 pixels wide or more where the smallest ball at d_max still spans 5 pixels of radius, with the "
+        "ball_shape likelihood; else 1",
+        low=0,
+        high=8,
+    )
     threads: int = setting(
         1,
         "threads that build the cameras' evidence side by side: 1 = none, 0 = one per camera up to the machine's cores "

@@ -8,7 +8,7 @@ explain-away looks the blobs up, the viewer draws the rays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 
 import cv2
@@ -118,6 +118,28 @@ class CameraEvidence:
         if ball is not None or moving is not None:
             seeds = _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_area, ball)
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral)
+
+
+def on_grid(camera: Camera, scale: int) -> Camera:
+    """The camera that sees every ``scale``-th pixel of ``camera``'s images in each direction (``every_nth``):
+    focal lengths and principal point / scale. Evidence built on that grid reads with this camera, and every later
+    stage follows it."""
+    if scale == 1:
+        return camera
+    K = np.array(camera.K, dtype=float)
+    K[:2] /= scale
+    return replace(camera, image_size=(camera.width // scale, camera.height // scale), K=K)
+
+
+def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
+    """Every ``scale``-th pixel of the image in each direction (pixel j is the image's pixel scale j). Picked, not
+    averaged: each keeps a full-size pixel's colour and noise, which the colour model has learnt (an average is
+    less noisy, so a large ball's colours crowd into fewer bins and look like a wall's)."""
+    if scale == 1:
+        return image
+    h, w = image.shape[:2]
+    # OpenCV's nearest-neighbour resize by a whole factor picks exactly these pixels, several times faster than numpy's strided copy.
+    return cv2.resize(image[: h - h % scale, : w - w % scale], (w // scale, h // scale), interpolation=cv2.INTER_NEAREST)
 
 
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
