@@ -24,7 +24,7 @@ SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
 TRAVEL = 2.0  # a track keeps its disc out of the background once it has gone this many ball radii from where it started ...
 SETTLED_FRAMES = 8  # ... or once it has lived this many frames (a ghost under it is learnt by then: ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
-ABSORB_FRAMES = 6  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
+ABSORB_FRAMES = 5  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
 

@@ -64,7 +64,7 @@ def test_the_ghost_a_ball_leaves_where_it_started_fades_at_once_even_under_a_tra
     seen = []
     for k in range(1, 15):  # the ball flies off to the right, a track sits on the ghost
         seen.append(bool(bg.foreground(frame(cam, start + np.array([0.05 * k, 0.0, 0.0]), wall=False), ghost)[uv[1], uv[0]]))
-    assert seen[0] and not any(seen[8:])  # a ghost at first, gone within ABSORB_FRAMES (6) and a little
+    assert seen[0] and not any(seen[8:])  # a ghost at first, gone within ABSORB_FRAMES (5) and a little
 
 
 def test_a_flickering_light_is_not_motion():
