@@ -38,6 +38,11 @@ class Target:
     def wraps(self) -> bool:
         return self.hsv_min[0] > self.hsv_max[0]
 
+    @property
+    def any_hue(self) -> bool:
+        """A range that takes every hue: a white, grey or black ball, told from the room by brightness alone."""
+        return self.hsv_min[0] == 0 and self.hsv_max[0] >= 179
+
 
 def setting(default: Any, doc: str, *, low: float | None = None, high: float | None = None, choices: tuple[str, ...] = ()) -> Any:
     """A documented setting: its default, what it means, and the values it accepts, side by side.

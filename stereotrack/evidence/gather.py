@@ -75,6 +75,7 @@ class CameraEvidence:
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
         background_hsv: np.ndarray | None = None,
+        motion_range: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -82,9 +83,12 @@ class CameraEvidence:
         could be such a ball seed particles (``blobs.ball_like``). With the colour model's ``colour_table``
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
-        kept too; the moving map still takes the whole range (a ball moving in front of its own colour), but with
-        the background in HSV (``background_hsv``, on the foreground's grid) only the pixels at least as likely the
+        kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
+        ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
+        in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
+        The blobs are those of the mask and the moving map together: what the likelihood counts is what
+        explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
         soft_integral = moving = moving_integral = sure = None
@@ -94,14 +98,17 @@ class CameraEvidence:
             moving = np.zeros_like(in_range) if foreground is not None else None
             sure = np.zeros_like(in_range) if colour_table is not None and ball is not None else None
             h, w = in_range.shape
+            own = motion_range is not None and foreground is not None
+            rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
             evidence_maps(
                 in_range,
-                in_range.max(axis=1),  # which rows hold any pixel in range (numpy's reduction is vectorised)
+                np.maximum(rows, motion_range.max(axis=1)) if own else rows,
                 hsv if colour_table is not None else _NO_HSV,
                 colour_table if colour_table is not None else _NO_TABLE,
                 foreground if foreground is not None else _NO_TABLE,
                 _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX,
                 _nearest(foreground.shape[1], w) if foreground is not None else _NO_INDEX,
+                motion_range if own else _NO_TABLE,
                 soft,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
@@ -113,7 +120,7 @@ class CameraEvidence:
                 soft_integral = integral_image(soft)
             if moving is not None:
                 moving_integral = integral_image(moving)
-        blobs = find_blobs(mask, blob_method, min_blob_area)
+        blobs = find_blobs(mask if moving is None else cv2.bitwise_or(mask, moving), blob_method, min_blob_area)
         origins, directions = camera.rays(blobs.centres)
         seeds = None
         if ball is not None or moving is not None:

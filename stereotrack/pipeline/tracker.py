@@ -179,6 +179,7 @@ class Tracker:
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds else None,
+                cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
         }

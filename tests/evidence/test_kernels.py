@@ -94,7 +94,11 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     expected = background.copy()
     cv2.accumulateWeighted(small, expected, 0.05, mask=learn * 255)
     moving = np.empty((60, 80), np.uint8)
-    evidence_kernels.background_step(image, background, learn, 0.05, 30.0, moving)
+    previous = cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)
+    calm = np.full((60, 80), 4, np.uint8)
+    evidence_kernels.background_step(image, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving)
+    assert np.array_equal(previous, small)  # the frame, kept for the next one
+    assert np.array_equal(calm, np.where(change > 30, 0, 5))  # frames in a row each cell has not changed
     assert 0.1 < expected_moving.mean() < 0.9
     assert np.array_equal(moving, expected_moving)
     assert np.allclose(background, expected, atol=1e-4)
