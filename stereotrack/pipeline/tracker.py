@@ -178,6 +178,8 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
+                self.backgrounds[j].hsv if self.backgrounds else None,
+                cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
         }
