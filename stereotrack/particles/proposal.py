@@ -72,6 +72,8 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     are blobs marked in ``skip`` (per camera, a bool per blob).
     """
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
+    if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
+        raise ValueError("ray_crossings: skip needs one flag per blob of each view")
     out = [
         crossing_points(
             *a.rays,
@@ -146,8 +148,10 @@ class RayProposal:
             # would cross at the wrong depth).
             held = None
             if mine is not None and len(mine):
+                # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
                 held = []
-                for v, b in zip(views, seeds):
+                for v in views:
+                    b = v.blobs
                     uv, ok = v.camera.project(mine.centres)
                     d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
                     held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
