@@ -175,6 +175,15 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
     blobs of the colour that is surely the ball's that no seed holds yet."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
+
+    def take(more: Blobs, new: np.ndarray) -> None:
+        if new.any():
+            mo, md = camera.rays(more.centres[new])
+            centres.append(more.centres[new])
+            radii.append(more.radii[new])
+            o.append(mo)
+            d.append(md)
+
     if moving is not None:
         mb = find_blobs(moving, blob_method, min_blob_area)
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
@@ -182,12 +191,7 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
             dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
             same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
             new &= ~same.any(axis=1)
-        if new.any():
-            mo, md = camera.rays(mb.centres[new])
-            centres.append(mb.centres[new])
-            radii.append(mb.radii[new])
-            o.append(mo)
-            d.append(md)
+        take(mb, new)
     if sure is not None and not keep.all():
         sb = find_blobs(sure, blob_method, min_blob_area)
         new = ball_like(sb, camera.focal_px, *ball)
@@ -195,10 +199,5 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
         if len(sb) and len(held_c):
             dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)
             new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
-        if new.any():
-            so, sd = camera.rays(sb.centres[new])
-            centres.append(sb.centres[new])
-            radii.append(sb.radii[new])
-            o.append(so)
-            d.append(sd)
+        take(sb, new)
     return Seeds(np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3))
