@@ -154,19 +154,50 @@ def hs_histograms(hsv, step, in_range, discs):
 
 
 @kernel
-def background_step(image, background, previous, calm, learn, gain, rate, threshold, moving):
+def frame_gain(image, background, step, scale):
+    """Per channel (float32 x 3), what ``image`` must be multiplied by to match ``background`` (its 1 / ``scale``
+    grid, float32) where the room did not change: the median of background / image over every ``step``-th
+    background cell in each direction (the image's pixel at scale x that cell's corner), among the cells neither
+    dark (<= 20) nor saturated (>= 250), with more than 100 of them; 1 where it is within 0.005 of 1. What
+    np.median gives on those samples (float32: an even count's median is the mean of its two middle values)."""
+    rows = (background.shape[0] + step - 1) // step
+    cols = (background.shape[1] + step - 1) // step
+    ratios = np.empty(rows * cols, np.float32)
+    gain = np.ones(3, np.float32)
+    for c in range(3):
+        n = 0
+        for j in range(rows):
+            for i in range(cols):
+                now = np.float32(image[scale * step * j, scale * step * i, c])
+                then = background[step * j, step * i, c]
+                if now > 20 and now < 250 and then > 20:
+                    ratios[n] = then / now
+                    n += 1
+        if n > 100:
+            ordered = np.sort(ratios[:n])
+            half = n // 2
+            gain[c] = ordered[half] if n % 2 else (ordered[half - 1] + ordered[half]) / np.float32(2.0)
+        if abs(gain[c] - np.float32(1.0)) < np.float32(0.005):
+            gain[c] = np.float32(1.0)
+    return gain
+
+
+@kernel
+def background_step(image, background, previous, calm, learn, gain, rate, threshold, moving, behind, absorb_frames):
     """One frame of the background model (motion.py), in one pass over the image: each 2 x 2 block of
     ``image`` (H x W x 3 uint8) averaged (as cv2.resize's INTER_AREA halves an image) and scaled by the frame's
     ``gain`` per channel (the lighting's drift undone) is compared with its ``background`` cell (H/2 x W/2 x 3
     float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the background rounded to grey levels) exceeds
     ``threshold``. ``calm`` counts the frames in a row (at most 255) each block has differed from the
-    ``previous`` frame's (uint8, updated here) by at most ``threshold``. Then the cell learns the block,
-    b += rate (block - b), where ``learn`` is set."""
+    ``previous`` frame's (uint8, updated here) by at most ``threshold``. ``behind`` (uint8) gets the background
+    as it was, rounded (what cv2.convertScaleAbs gives). Then the cell learns the block, b += rate (block - b),
+    where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more."""
     h, w = background.shape[0], background.shape[1]
     a = np.float32(rate)
+    calm_moving = 0
     for j in range(h):
         top, bottom = image[2 * j], image[2 * j + 1]
-        cells, before, count, learning, out = background[j], previous[j], calm[j], learn[j], moving[j]
+        cells, before, count, learning, out, was = background[j], previous[j], calm[j], learn[j], moving[j], behind[j]
         for i in range(w):
             change = np.int32(0)
             step = np.int32(0)
@@ -176,6 +207,7 @@ def background_step(image, background, previous, calm, learn, gain, rate, thresh
                 ) >> 2
                 if gain[c] != 1.0:
                     block = min(np.int32(np.float32(block) * gain[c] + np.float32(0.5)), np.int32(255))
+                was[i, c] = np.uint8(min(np.rint(cells[i, c]), np.float32(255.0)))  # >= 0: rounded half to even, as OpenCV
                 change += abs(block - np.int32(cells[i, c] + np.float32(0.5)))  # the background is >= 0: + 0.5 rounds it
                 step += abs(block - np.int32(before[i, c]))
                 before[i, c] = block
@@ -183,3 +215,45 @@ def background_step(image, background, previous, calm, learn, gain, rate, thresh
                     cells[i, c] += a * (np.float32(block) - cells[i, c])
             out[i] = 1 if change > threshold else 0
             count[i] = min(count[i] + 1, 255) if step <= threshold else 0
+            if out[i] and count[i] >= absorb_frames:
+                calm_moving += 1
+    return calm_moving
+
+
+@kernel
+def absorb_still_patches(moving, calm, learn, background, previous, absorb_frames):
+    """Learn at once the 8-connected patches of ``moving`` none of whose cells has changed for ``absorb_frames``
+    frames (``calm``): where ``learn`` is set, the cell's ``background`` becomes the ``previous`` frame's and it
+    stops moving. Only patches holding a calm cell are visited (a flood fill from each): what labelling every
+    patch (cv2.connectedComponents) and keeping the still ones gives."""
+    h, w = moving.shape
+    seen = np.zeros((h, w), np.uint8)
+    stack = np.empty((h * w, 2), np.int64)
+    patch = np.empty((h * w, 2), np.int64)
+    for y0 in range(h):
+        for x0 in range(w):
+            if not moving[y0, x0] or seen[y0, x0] or calm[y0, x0] < absorb_frames:
+                continue
+            seen[y0, x0] = 1
+            stack[0, 0], stack[0, 1] = y0, x0
+            top, size, still = 1, 0, True
+            while top > 0:
+                top -= 1
+                y, x = stack[top, 0], stack[top, 1]
+                patch[size, 0], patch[size, 1] = y, x
+                size += 1
+                if calm[y, x] < absorb_frames:
+                    still = False
+                for ny in range(max(y - 1, 0), min(y + 2, h)):
+                    for nx in range(max(x - 1, 0), min(x + 2, w)):
+                        if moving[ny, nx] and not seen[ny, nx]:
+                            seen[ny, nx] = 1
+                            stack[top, 0], stack[top, 1] = ny, nx
+                            top += 1
+            if still:
+                for k in range(size):
+                    y, x = patch[k, 0], patch[k, 1]
+                    if learn[y, x]:
+                        for c in range(3):
+                            background[y, x, c] = np.float32(previous[y, x, c])
+                        moving[y, x] = 0

@@ -178,7 +178,7 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
-                self.backgrounds[j].hsv if self.backgrounds else None,
+                self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
