@@ -37,6 +37,13 @@ MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are 
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
 
 
+def halved(image: np.ndarray) -> np.ndarray:
+    """The image on the background's grid: each SCALE x SCALE block's mean, rounded (cv2.resize's INTER_AREA by a
+    whole factor; an odd last row or column is left out)."""
+    h, w = image.shape[0] // SCALE, image.shape[1] // SCALE
+    return cv2.resize(image[: SCALE * h, : SCALE * w], (w, h), interpolation=cv2.INTER_AREA)
+
+
 class BackgroundModel:
     """One camera's background, learnt as frames come."""
 
@@ -64,7 +71,7 @@ class BackgroundModel:
         tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are."""
         h, w = image.shape[:2]
         if self._background is None:
-            self._previous = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA)
+            self._previous = halved(image)
             self._background = self._previous.astype(np.float32)
             self._calm = np.zeros(self._background.shape[:2], np.uint8)
             self._frames = 1
@@ -84,7 +91,7 @@ class BackgroundModel:
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
         calm_moving = background_step(
-            image, self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
+            halved(image), self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
         )
         self._frames += 1
         if calm_moving >= MIN_GHOST_CELLS:

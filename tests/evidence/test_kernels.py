@@ -99,7 +99,7 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     was = background.copy()
     behind = np.empty((60, 80, 3), np.uint8)
     calm_moving = evidence_kernels.background_step(
-        image, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5
+        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5
     )
     assert np.array_equal(behind, cv2.convertScaleAbs(was))  # the background as it was, rounded as OpenCV rounds
     assert calm_moving == 0  # a moving cell changed from the frame before: none is calm
@@ -109,6 +109,19 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     assert np.array_equal(moving, expected_moving)
     assert np.allclose(background, expected, atol=1e-4)
     assert not np.allclose(background[learn == 1], cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)[learn == 1])
+
+    # a frame under a gain, against the model's arithmetic spelled out in float32 numpy (bit for bit)
+    gain = np.array([1.1, 0.93, 1.0], np.float32)
+    blocks = np.minimum((small.astype(np.float32) * gain + np.float32(0.5)).astype(np.int32), 255)
+    before, cells, counts = previous.astype(np.int32), background.copy(), calm.copy()
+    change = np.abs(blocks - (cells + np.float32(0.5)).astype(np.int32)).sum(axis=2)
+    steady = np.abs(blocks - before).sum(axis=2) <= 30
+    learnt = np.where(learn[..., None] > 0, cells + np.float32(0.05) * (blocks.astype(np.float32) - cells), cells)
+    calm_moving = evidence_kernels.background_step(small, background, previous, calm, learn, gain, 0.05, 30.0, moving, behind, 1)
+    assert np.array_equal(behind, cv2.convertScaleAbs(cells)) and np.array_equal(previous, blocks.astype(np.uint8))
+    assert np.array_equal(moving, (change > 30).astype(np.uint8)) and np.array_equal(background, learnt)
+    assert np.array_equal(calm, np.where(steady, np.minimum(counts.astype(int) + 1, 255), 0))
+    assert calm_moving == np.count_nonzero((change > 30) & steady)
 
 
 def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
