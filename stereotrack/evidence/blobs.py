@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .kernels import component_boxes, mask_moments
+from .kernels import component_boxes, mask_moments, subsampled
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,7 +36,7 @@ class Blobs:
 def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
-    small = np.ascontiguousarray(mask[::scale, ::scale]) if scale > 1 else mask
+    small = subsampled(mask, scale) if scale > 1 else mask
     # Labels only: OpenCV's per-component statistics cost several times the labelling itself.
     n, labels = cv2.connectedComponents(small, connectivity=8, ltype=cv2.CV_32S)
     area, boxes = component_boxes(labels, n)

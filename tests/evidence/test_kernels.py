@@ -208,3 +208,10 @@ def test_still_patches_are_absorbed_as_labelling_every_patch_gives():
         evidence_kernels.absorb_still_patches(moving, calm, learn, background, previous, 5)
         assert np.array_equal(moving, want_moving) and np.array_equal(background, want_background)
         assert trial % 2 or still.any()
+
+
+def test_the_subsampled_mask_is_numpys_strided_copy():
+    rng = np.random.default_rng(16)
+    for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
+        mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
+        assert np.array_equal(evidence_kernels.subsampled(mask, scale), mask[::scale, ::scale])
