@@ -16,14 +16,26 @@ HUE_STEP, SAT_STEP = 4, 8
 
 @kernel
 def subsampled(mask, scale):
-    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy)."""
+    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), and
+    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty)."""
     h, w = mask.shape
     out = np.empty(((h + scale - 1) // scale, (w + scale - 1) // scale), mask.dtype)
+    x0, y0, x1, y1 = out.shape[1], out.shape[0], 0, 0
     for y in range(out.shape[0]):
         row, o = mask[scale * y], out[y]
+        first, last = -1, -1
         for x in range(out.shape[1]):
             o[x] = row[scale * x]
-    return out
+            if o[x]:
+                last = x
+                if first < 0:
+                    first = x
+        if last >= 0:
+            x0, x1 = min(x0, first), max(x1, last + 1)
+            y0, y1 = min(y0, y), y + 1
+    if x1 == 0:
+        return out, 0, 0, 0, 0
+    return out, x0 - x0 % 2, y0 - y0 % 2, x1, y1
 
 
 @kernel

@@ -214,4 +214,8 @@ def test_the_subsampled_mask_is_numpys_strided_copy():
     rng = np.random.default_rng(16)
     for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
         mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
-        assert np.array_equal(evidence_kernels.subsampled(mask, scale), mask[::scale, ::scale])
+        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale)
+        assert np.array_equal(small, mask[::scale, ::scale])
+        ys, xs = np.nonzero(small)
+        assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
+    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2)[1:] == (0, 0, 0, 0)
