@@ -66,12 +66,13 @@ class BackgroundModel:
         h, w = image.shape[:2]
         return cv2.resize(self.update(image, balls), (w, h), interpolation=cv2.INTER_NEAREST)
 
-    def update(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
+    def update(self, image: np.ndarray, balls: TrackedBalls | None = None, image_halved: np.ndarray | None = None) -> np.ndarray:
         """This frame's foreground on the background's grid (1 / SCALE of the image's size, uint8 0/1; the
-        tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are."""
+        tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are.
+        ``image_halved``: ``halved(image)``, when it was made already (ahead, in another thread: pipeline/run.py)."""
         h, w = image.shape[:2]
         if self._background is None:
-            self._previous = halved(image)
+            self._previous = halved(image) if image_halved is None else image_halved.copy()
             self._background = self._previous.astype(np.float32)
             self._calm = np.zeros(self._background.shape[:2], np.uint8)
             self._frames = 1
@@ -91,7 +92,7 @@ class BackgroundModel:
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
         calm_moving = background_step(
-            halved(image), self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
+            halved(image) if image_halved is None else image_halved, self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
         )
         self._frames += 1
         if calm_moving >= MIN_GHOST_CELLS:
