@@ -198,9 +198,14 @@ def frame_gain(image, background, step, scale):
                     ratios[n] = then / now
                     n += 1
         if n > 100:
-            ordered = np.sort(ratios[:n])
             half = n // 2
-            gain[c] = ordered[half] if n % 2 else (ordered[half - 1] + ordered[half]) / np.float32(2.0)
+            upper = np.partition(ratios[:n], half)  # the middle value in place, the larger ones after it
+            low = upper[half]
+            if n % 2 == 0:
+                low = upper[0]
+                for k in range(1, half):  # the largest of the lower half
+                    low = max(low, upper[k])
+            gain[c] = upper[half] if n % 2 else (low + upper[half]) / np.float32(2.0)
         if abs(gain[c] - np.float32(1.0)) < np.float32(0.005):
             gain[c] = np.float32(1.0)
     return gain

@@ -181,6 +181,10 @@ def test_the_frame_gain_is_numpys_median_of_the_ratios():
     background = rng.uniform(21, 240, (60, 80, 3)).astype(np.float32)
     same = cv2.resize(np.rint(background * 1.003).astype(np.uint8), (160, 120), interpolation=cv2.INTER_NEAREST)
     assert np.array_equal(evidence_kernels.frame_gain(same, background, 8, 2), np.ones(3, np.float32))  # within 0.005 of 1: 1
+    for trial in range(20):  # odd and even counts of samples (an even count's median is a mean of two)
+        background = rng.uniform(10, 250, (60 + trial, 80, 3)).astype(np.float32)
+        image = rng.integers(0, 256, (120 + 2 * trial, 160, 3), dtype=np.uint8)
+        assert np.array_equal(evidence_kernels.frame_gain(image, background, 4, 2), _numpy_gain(image, background, 4))
     dark = np.full((120, 160, 3), 10, np.uint8)  # too few cells to measure: no gain
     assert np.array_equal(evidence_kernels.frame_gain(dark, np.full((60, 80, 3), 100, np.float32), 8, 2), np.ones(3, np.float32))
 
