@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .kernels import component_boxes, mask_moments
+from .kernels import component_boxes, mask_moments, subsampled
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,10 +36,16 @@ class Blobs:
 def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
-    small = np.ascontiguousarray(mask[::scale, ::scale]) if scale > 1 else mask
-    # Labels only: OpenCV's per-component statistics cost several times the labelling itself.
-    n, labels = cv2.connectedComponents(small, connectivity=8, ltype=cv2.CV_32S)
-    area, boxes = component_boxes(labels, n)
+    small, x0, y0, x1, y1 = subsampled(mask, scale)
+    # Labels only: OpenCV's per-component statistics cost several times the labelling itself. Labelled inside the
+    # box of the set pixels (most of a mask is empty), from an even corner: OpenCV labels 2 x 2 blocks in raster
+    # order, so the labels are those of the whole mask.
+    labels = np.zeros(small.shape, np.int32)
+    n = 1
+    if x1:
+        n, labels[y0:y1, x0:x1] = cv2.connectedComponents(small[y0:y1, x0:x1], connectivity=8, ltype=cv2.CV_32S)
+    area, boxes = component_boxes(labels[y0:y1, x0:x1], n)
+    boxes += np.array([x0, y0, x0, y0])
     keep = area * scale * scale >= min_area
     label_blob = np.full(n, -1)
     label_blob[1:][keep] = np.arange(keep.sum())

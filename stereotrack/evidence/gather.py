@@ -47,6 +47,7 @@ class CameraEvidence:
     seeds: Seeds | None = None  # the blobs abductive particles start from (None: every blob of the mask)
     soft_integral: np.ndarray | None = None  # summed-area table of p(ball | colour) x 255 inside the range (colour_model.py)
     mask_integral: np.ndarray | None = None  # the mask's summed-area table when it was at hand; else made when first asked
+    counted: np.ndarray | None = None  # H x W uint8: the mask OR the moving map, the pixels the blobs are of (None: the mask)
 
     @cached_property
     def integral(self) -> np.ndarray:
@@ -120,12 +121,13 @@ class CameraEvidence:
                 soft_integral = integral_image(soft)
             if moving is not None:
                 moving_integral = integral_image(moving)
-        blobs = find_blobs(mask if moving is None else cv2.bitwise_or(mask, moving), blob_method, min_blob_area)
+        counted = mask if moving is None else cv2.bitwise_or(mask, moving)
+        blobs = find_blobs(counted, blob_method, min_blob_area)
         origins, directions = camera.rays(blobs.centres)
         seeds = None
         if ball is not None or moving is not None:
             seeds = _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_blob_area, ball)
-        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral)
+        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted)
 
 
 def on_grid(camera: Camera, scale: int) -> Camera:

@@ -15,6 +15,30 @@ HUE_STEP, SAT_STEP = 4, 8
 
 
 @kernel
+def subsampled(mask, scale):
+    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), and
+    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty)."""
+    h, w = mask.shape
+    out = np.empty(((h + scale - 1) // scale, (w + scale - 1) // scale), mask.dtype)
+    x0, y0, x1, y1 = out.shape[1], out.shape[0], 0, 0
+    for y in range(out.shape[0]):
+        row, o = mask[scale * y], out[y]
+        first, last = -1, -1
+        for x in range(out.shape[1]):
+            o[x] = row[scale * x]
+            if o[x]:
+                last = x
+                if first < 0:
+                    first = x
+        if last >= 0:
+            x0, x1 = min(x0, first), max(x1, last + 1)
+            y0, y1 = min(y0, y), y + 1
+    if x1 == 0:
+        return out, 0, 0, 0, 0
+    return out, x0 - x0 % 2, y0 - y0 % 2, x1, y1
+
+
+@kernel
 def component_boxes(labels, n):
     """Pixel count and bounding box (x0, y0, x1, y1, end exclusive) of components 1..n-1 of a label image."""
     area = np.zeros(n, np.int64)
@@ -154,32 +178,117 @@ def hs_histograms(hsv, step, in_range, discs):
 
 
 @kernel
-def background_step(image, background, previous, calm, learn, gain, rate, threshold, moving):
-    """One frame of the background model (motion.py), in one pass over the image: each 2 x 2 block of
-    ``image`` (H x W x 3 uint8) averaged (as cv2.resize's INTER_AREA halves an image) and scaled by the frame's
-    ``gain`` per channel (the lighting's drift undone) is compared with its ``background`` cell (H/2 x W/2 x 3
-    float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the background rounded to grey levels) exceeds
-    ``threshold``. ``calm`` counts the frames in a row (at most 255) each block has differed from the
-    ``previous`` frame's (uint8, updated here) by at most ``threshold``. Then the cell learns the block,
-    b += rate (block - b), where ``learn`` is set."""
+def frame_gain(image, background, step, scale):
+    """Per channel (float32 x 3), what ``image`` must be multiplied by to match ``background`` (its 1 / ``scale``
+    grid, float32) where the room did not change: the median of background / image over every ``step``-th
+    background cell in each direction (the image's pixel at scale x that cell's corner), among the cells neither
+    dark (<= 20) nor saturated (>= 250), with more than 100 of them; 1 where it is within 0.005 of 1. What
+    np.median gives on those samples (float32: an even count's median is the mean of its two middle values)."""
+    rows = (background.shape[0] + step - 1) // step
+    cols = (background.shape[1] + step - 1) // step
+    ratios = np.empty(rows * cols, np.float32)
+    gain = np.ones(3, np.float32)
+    for c in range(3):
+        n = 0
+        for j in range(rows):
+            for i in range(cols):
+                now = np.float32(image[scale * step * j, scale * step * i, c])
+                then = background[step * j, step * i, c]
+                if now > 20 and now < 250 and then > 20:
+                    ratios[n] = then / now
+                    n += 1
+        if n > 100:
+            half = n // 2
+            upper = np.partition(ratios[:n], half)  # the middle value in place, the larger ones after it
+            low = upper[half]
+            if n % 2 == 0:
+                low = upper[0]
+                for k in range(1, half):  # the largest of the lower half
+                    low = max(low, upper[k])
+            gain[c] = upper[half] if n % 2 else (low + upper[half]) / np.float32(2.0)
+        if abs(gain[c] - np.float32(1.0)) < np.float32(0.005):
+            gain[c] = np.float32(1.0)
+    return gain
+
+
+@kernel
+def background_step(small, background, previous, calm, learn, gain, rate, threshold, moving, behind, absorb_frames):
+    """One frame of the background model (motion.py), in one pass over the frame at the background's size
+    (``small``, H x W x 3 uint8: cv2.resize's INTER_AREA average of each 2 x 2 block of the image): each cell
+    scaled by the frame's ``gain`` per channel (the lighting's drift undone, rounded half up) is compared with its
+    ``background`` cell (float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the background rounded to grey
+    levels) exceeds ``threshold``. ``calm`` counts the frames in a row (at most 255) each cell has differed from
+    the ``previous`` frame's (uint8, updated here) by at most ``threshold``. ``behind`` (uint8) gets the
+    background as it was, rounded (what cv2.convertScaleAbs gives). Then the cell learns, b += rate (cell - b),
+    where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more.
+    Each row runs channel by channel over its 3 W values first (a loop the compiler vectorises: no branch in it;
+    a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell."""
     h, w = background.shape[0], background.shape[1]
+    n = 3 * w
     a = np.float32(rate)
+    gains = np.empty(n, np.float32)
+    for k in range(n):
+        gains[k] = gain[k % 3]
+    learning = np.empty(n, np.float32)
+    change = np.empty(n, np.int32)
+    step = np.empty(n, np.int32)
+    calm_moving = 0
     for j in range(h):
-        top, bottom = image[2 * j], image[2 * j + 1]
-        cells, before, count, learning, out = background[j], previous[j], calm[j], learn[j], moving[j]
+        blocks, cells, before, was = small[j].reshape(n), background[j].reshape(n), previous[j].reshape(n), behind[j].reshape(n)
         for i in range(w):
-            change = np.int32(0)
-            step = np.int32(0)
-            for c in range(3):
-                block = (
-                    np.int32(top[2 * i, c]) + np.int32(top[2 * i + 1, c]) + np.int32(bottom[2 * i, c]) + np.int32(bottom[2 * i + 1, c]) + 2
-                ) >> 2
-                if gain[c] != 1.0:
-                    block = min(np.int32(np.float32(block) * gain[c] + np.float32(0.5)), np.int32(255))
-                change += abs(block - np.int32(cells[i, c] + np.float32(0.5)))  # the background is >= 0: + 0.5 rounds it
-                step += abs(block - np.int32(before[i, c]))
-                before[i, c] = block
-                if learning[i]:
-                    cells[i, c] += a * (np.float32(block) - cells[i, c])
-            out[i] = 1 if change > threshold else 0
-            count[i] = min(count[i] + 1, 255) if step <= threshold else 0
+            f = np.float32(1.0) if learn[j, i] else np.float32(0.0)
+            learning[3 * i], learning[3 * i + 1], learning[3 * i + 2] = f, f, f
+        for k in range(n):
+            block = min(np.int32(np.float32(blocks[k]) * gains[k] + np.float32(0.5)), np.int32(255))
+            cell = cells[k]
+            change[k] = abs(block - np.int32(cell + np.float32(0.5)))  # the background is >= 0: + 0.5 rounds it
+            step[k] = abs(block - np.int32(before[k]))
+            before[k] = np.uint8(block)
+            was[k] = np.uint8(min(np.rint(cell), np.float32(255.0)))  # rounded half to even, as OpenCV rounds
+            cells[k] = cell + a * (np.float32(block) - cell) * learning[k]
+        count, out = calm[j], moving[j]
+        for i in range(w):
+            out[i] = 1 if change[3 * i] + change[3 * i + 1] + change[3 * i + 2] > threshold else 0
+            count[i] = min(count[i] + 1, 255) if step[3 * i] + step[3 * i + 1] + step[3 * i + 2] <= threshold else 0
+            if out[i] and count[i] >= absorb_frames:
+                calm_moving += 1
+    return calm_moving
+
+
+@kernel
+def absorb_still_patches(moving, calm, learn, background, previous, absorb_frames):
+    """Learn at once the 8-connected patches of ``moving`` none of whose cells has changed for ``absorb_frames``
+    frames (``calm``): where ``learn`` is set, the cell's ``background`` becomes the ``previous`` frame's and it
+    stops moving. Only patches holding a calm cell are visited (a flood fill from each): what labelling every
+    patch (cv2.connectedComponents) and keeping the still ones gives."""
+    h, w = moving.shape
+    seen = np.zeros((h, w), np.uint8)
+    stack = np.empty((h * w, 2), np.int64)
+    patch = np.empty((h * w, 2), np.int64)
+    for y0 in range(h):
+        for x0 in range(w):
+            if not moving[y0, x0] or seen[y0, x0] or calm[y0, x0] < absorb_frames:
+                continue
+            seen[y0, x0] = 1
+            stack[0, 0], stack[0, 1] = y0, x0
+            top, size, still = 1, 0, True
+            while top > 0:
+                top -= 1
+                y, x = stack[top, 0], stack[top, 1]
+                patch[size, 0], patch[size, 1] = y, x
+                size += 1
+                if calm[y, x] < absorb_frames:
+                    still = False
+                for ny in range(max(y - 1, 0), min(y + 2, h)):
+                    for nx in range(max(x - 1, 0), min(x + 2, w)):
+                        if moving[ny, nx] and not seen[ny, nx]:
+                            seen[ny, nx] = 1
+                            stack[top, 0], stack[top, 1] = ny, nx
+                            top += 1
+            if still:
+                for k in range(size):
+                    y, x = patch[k, 0], patch[k, 1]
+                    if learn[y, x]:
+                        for c in range(3):
+                            background[y, x, c] = np.float32(previous[y, x, c])
+                        moving[y, x] = 0

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..results import TrackedBalls
-from .kernels import background_step
+from .kernels import absorb_still_patches, background_step, frame_gain
 
 SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
@@ -35,6 +35,13 @@ SETTLED_FRAMES = 8  # ... or once it has lived this many frames (a ghost under i
 ABSORB_FRAMES = 5  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
+
+
+def halved(image: np.ndarray) -> np.ndarray:
+    """The image on the background's grid: each SCALE x SCALE block's mean, rounded (cv2.resize's INTER_AREA by a
+    whole factor; an odd last row or column is left out)."""
+    h, w = image.shape[0] // SCALE, image.shape[1] // SCALE
+    return cv2.resize(image[: SCALE * h, : SCALE * w], (w, h), interpolation=cv2.INTER_AREA)
 
 
 class BackgroundModel:
@@ -46,7 +53,8 @@ class BackgroundModel:
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
         self._frames = 0  # frames learnt so far (the warm-up's running mean)
-        self.hsv: np.ndarray | None = None  # the background in HSV (uint8, its grid) as it was before the last frame learnt
+        self.behind: np.ndarray | None = None  # the background (uint8 BGR, its grid) as it was before the last frame learnt
+        self._behind_hsv: np.ndarray | None = None  # its HSV, made when first asked
         self._previous: np.ndarray | None = None  # uint8, the last frame at that size (after its gain)
         self._calm: np.ndarray | None = None  # uint8, frames in a row each cell has not changed (at most 255)
         self._start: dict[int, np.ndarray] = {}  # where each track was first seen
@@ -58,12 +66,13 @@ class BackgroundModel:
         h, w = image.shape[:2]
         return cv2.resize(self.update(image, balls), (w, h), interpolation=cv2.INTER_NEAREST)
 
-    def update(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
+    def update(self, image: np.ndarray, balls: TrackedBalls | None = None, image_halved: np.ndarray | None = None) -> np.ndarray:
         """This frame's foreground on the background's grid (1 / SCALE of the image's size, uint8 0/1; the
-        tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are."""
+        tracker reads it there, evidence/gather.py); then learn the frame, except where ``balls`` are.
+        ``image_halved``: ``halved(image)``, when it was made already (ahead, in another thread: pipeline/run.py)."""
         h, w = image.shape[:2]
         if self._background is None:
-            self._previous = cv2.resize(image, (w // SCALE, h // SCALE), interpolation=cv2.INTER_AREA)
+            self._previous = halved(image) if image_halved is None else image_halved.copy()
             self._background = self._previous.astype(np.float32)
             self._calm = np.zeros(self._background.shape[:2], np.uint8)
             self._frames = 1
@@ -77,28 +86,32 @@ class BackgroundModel:
                 if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
         moving = np.empty(learn.shape, np.uint8)
-        self.hsv = cv2.cvtColor(cv2.convertScaleAbs(self._background), cv2.COLOR_BGR2HSV)  # what the moving pixels replaced
+        if self.behind is None:
+            self.behind = np.empty(self._background.shape, np.uint8)
+        self._behind_hsv = None
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
-        background_step(image, self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving)
+        calm_moving = background_step(
+            halved(image) if image_halved is None else image_halved, self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
+        )
         self._frames += 1
-        self._absorb_ghosts(moving, learn)
+        if calm_moving >= MIN_GHOST_CELLS:
+            self._absorb_ghosts(moving, learn)
         return moving
+
+    @property
+    def hsv(self) -> np.ndarray | None:
+        """The background in HSV (uint8, its grid) as it was before the last frame learnt: what the moving pixels replaced."""
+        if self._behind_hsv is None and self.behind is not None:
+            self._behind_hsv = cv2.cvtColor(self.behind, cv2.COLOR_BGR2HSV)
+        return self._behind_hsv
 
     def _absorb_ghosts(self, moving: np.ndarray, learn: np.ndarray) -> None:
         """Learn at once the moving patches none of whose cells has changed for ABSORB_FRAMES frames: a ghost
         (the room a ball uncovered, which the background still holds the ball in front of) or a thing that
-        stopped, untracked. A moving thing's patch changes at its edges, a tracked ball's is kept out (``learn``)."""
-        calm = self._calm >= ABSORB_FRAMES
-        if np.count_nonzero(cv2.bitwise_and(moving, calm.view(np.uint8))) < MIN_GHOST_CELLS:
-            return
-        n, labels = cv2.connectedComponents(moving, connectivity=8)
-        changing = np.zeros(n, bool)
-        changing[0] = True  # the label of what does not move
-        changing[labels[(moving > 0) & ~calm]] = True  # a patch with a cell that changed lately is a thing that moves
-        still = ~changing[labels] & (learn > 0)
-        self._background[still] = self._previous[still]
-        moving[still] = 0
+        stopped, untracked. A moving thing's patch changes at its edges, a tracked ball's is kept out (``learn``).
+        Called only when MIN_GHOST_CELLS moving cells or more are calm (a speck of noise is left to the running average)."""
+        absorb_still_patches(moving, self._calm, learn, self._background, self._previous, ABSORB_FRAMES)
 
     def _moved(self, balls: TrackedBalls | None) -> TrackedBalls | None:
         """The tracked balls that have travelled since their track began, or lived SETTLED_FRAMES frames: only they
@@ -125,18 +138,4 @@ class BackgroundModel:
         """Per channel, what this frame must be multiplied by to match the background where the room did not
         change: the median ratio over a grid of cells (a ball or a hand moves over a few of them, a light that
         dims or flickers, or a camera's exposure that hunts, changes them all)."""
-        then = self._background[::GAIN_STEP, ::GAIN_STEP]
-        rows, cols = then.shape[:2]
-        now = (
-            image[: SCALE * GAIN_STEP * rows : SCALE * GAIN_STEP, : SCALE * GAIN_STEP * cols : SCALE * GAIN_STEP]
-            .reshape(-1, 3)
-            .astype(np.float32)
-        )
-        then = then.reshape(-1, 3)
-        ok = (now > 20) & (now < 250) & (then > 20)
-        gain = np.ones(3, np.float32)
-        for c in range(3):
-            if ok[:, c].sum() > 100:
-                gain[c] = np.median(then[ok[:, c], c] / now[ok[:, c], c])
-        gain[np.abs(gain - 1.0) < 0.005] = 1.0
-        return gain
+        return frame_gain(image, self._background, GAIN_STEP, SCALE)

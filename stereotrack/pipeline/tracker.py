@@ -20,7 +20,7 @@ from ..errors import StereotrackError
 from ..evidence.colour import camera_masks
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, every_nth, on_grid
-from ..evidence.motion import BackgroundModel
+from ..evidence.motion import BackgroundModel, halved
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -74,15 +74,18 @@ class Tracker:
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
     def colours(self, images) -> list:
-        """Per camera: the image on its evidence grid and that image's HSV and range masks. The step's first part,
+        """Per camera: the image on its evidence grid, that image's HSV and range masks, and (with motion) the image on
+        the background's grid (motion.halved). The step's first part,
         and nothing the tracks hold changes it: a caller with the next pair at hand may make it ahead, in another
         thread (pipeline/run.py), and give it to ``step``."""
         return [self._colours(j, image) for j, image in enumerate(images)]
 
     def _colours(self, j: int, image: np.ndarray):
         small = every_nth(image, self.scales[j])
-        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
-        return small, camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
+        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all; the frame on the
+        # background's grid is made here too (no track is needed for it: made ahead with the rest).
+        masks = camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
+        return small, masks, halved(small) if self.backgrounds else None
 
     def step(self, pair: FramePair, colours: list | None = None) -> FrameResult:
         """Track one pair; ``colours``: the pair's ``colours(pair.images)``, when it was made ahead."""
@@ -164,8 +167,8 @@ class Tracker:
         s = self.config.tracker
         cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
-        small, cm = colours if colours is not None else self._colours(j, image)
-        foreground = self.backgrounds[j].update(small, balls) if self.backgrounds else None
+        small, cm, small_halved = colours if colours is not None else self._colours(j, image)
+        foreground = self.backgrounds[j].update(small, balls, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
         views = {
             t.name: CameraEvidence.from_mask(
@@ -178,7 +181,7 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
-                self.backgrounds[j].hsv if self.backgrounds else None,
+                self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
@@ -222,6 +225,8 @@ class _InThisThread:
 
 def _kept(view: CameraEvidence) -> np.ndarray:
     """The pixels the observation model counts: the colour it kept, and the moving part of the range."""
+    if view.counted is not None:
+        return view.counted
     return view.mask if view.moving is None else cv2.bitwise_or(view.mask, view.moving)
 
 

@@ -65,3 +65,25 @@ def test_a_ball_merged_with_scenery_of_its_hue_still_seeds_where_its_colour_is_s
     assert len(ev.blobs) == 1  # arm and ball: one blob, no ball
     seeds = ev.proposal_seeds()
     assert len(seeds) == 1 and np.linalg.norm(seeds.centres[0] - (350, 250)) < 2 and 15 < seeds.radii[0] < 25
+
+
+def test_labelling_only_the_box_of_the_set_pixels_gives_the_whole_masks_labels():
+    """Blobs are labelled inside the box of the mask's set pixels; their order (which later stages follow) must be
+    that of labelling the whole mask, with one OpenCV thread or several."""
+    rng = np.random.default_rng(8)
+    threads = cv2.getNumThreads()
+    try:
+        for trial in range(40):
+            cv2.setNumThreads(1 if trial % 2 else max(threads, 2))
+            h, w = (480, 640) if trial % 3 else (121, 163)
+            mask = np.zeros((h, w), np.uint8)
+            y, x = rng.integers(0, h - 60), rng.integers(0, w - 80)
+            mask[y : y + 60, x : x + 80] = cv2.GaussianBlur(rng.random((60, 80)), (0, 0), 1.5) > 0.55
+            blobs = find_blobs(mask, min_area=1)
+            n, labels = cv2.connectedComponents(np.ascontiguousarray(mask[::2, ::2]), connectivity=8, ltype=cv2.CV_32S)
+            assert n > 3 and np.array_equal(blobs.labels, labels)
+            assert len(blobs) == n - 1 and np.array_equal(blobs.label_blob, np.arange(-1, n - 1))
+    finally:
+        cv2.setNumThreads(threads)
+    empty = find_blobs(np.zeros((48, 64), np.uint8))
+    assert len(empty) == 0 and not empty.labels.any()

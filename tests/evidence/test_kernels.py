@@ -96,13 +96,32 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     moving = np.empty((60, 80), np.uint8)
     previous = cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)
     calm = np.full((60, 80), 4, np.uint8)
-    evidence_kernels.background_step(image, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving)
+    was = background.copy()
+    behind = np.empty((60, 80, 3), np.uint8)
+    calm_moving = evidence_kernels.background_step(
+        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5
+    )
+    assert np.array_equal(behind, cv2.convertScaleAbs(was))  # the background as it was, rounded as OpenCV rounds
+    assert calm_moving == 0  # a moving cell changed from the frame before: none is calm
     assert np.array_equal(previous, small)  # the frame, kept for the next one
     assert np.array_equal(calm, np.where(change > 30, 0, 5))  # frames in a row each cell has not changed
     assert 0.1 < expected_moving.mean() < 0.9
     assert np.array_equal(moving, expected_moving)
     assert np.allclose(background, expected, atol=1e-4)
     assert not np.allclose(background[learn == 1], cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)[learn == 1])
+
+    # a frame under a gain, against the model's arithmetic spelled out in float32 numpy (bit for bit)
+    gain = np.array([1.1, 0.93, 1.0], np.float32)
+    blocks = np.minimum((small.astype(np.float32) * gain + np.float32(0.5)).astype(np.int32), 255)
+    before, cells, counts = previous.astype(np.int32), background.copy(), calm.copy()
+    change = np.abs(blocks - (cells + np.float32(0.5)).astype(np.int32)).sum(axis=2)
+    steady = np.abs(blocks - before).sum(axis=2) <= 30
+    learnt = np.where(learn[..., None] > 0, cells + np.float32(0.05) * (blocks.astype(np.float32) - cells), cells)
+    calm_moving = evidence_kernels.background_step(small, background, previous, calm, learn, gain, 0.05, 30.0, moving, behind, 1)
+    assert np.array_equal(behind, cv2.convertScaleAbs(cells)) and np.array_equal(previous, blocks.astype(np.uint8))
+    assert np.array_equal(moving, (change > 30).astype(np.uint8)) and np.array_equal(background, learnt)
+    assert np.array_equal(calm, np.where(steady, np.minimum(counts.astype(int) + 1, 255), 0))
+    assert calm_moving == np.count_nonzero((change > 30) & steady)
 
 
 def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
@@ -133,3 +152,74 @@ def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
     assert ev.moving[230:251, 190:211].sum() == 0  # its old place: the wall, no ghost
     plain = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv)
     assert plain.moving[235:246, 195:206].all()  # without the background's colours, the ghost moves
+
+
+def _numpy_gain(image, background, step=8, scale=2):
+    """The lighting's gain as motion.py measured it before the compiled pass: np.median per channel."""
+    then = background[::step, ::step]
+    rows, cols = then.shape[:2]
+    now = image[: scale * step * rows : scale * step, : scale * step * cols : scale * step].reshape(-1, 3).astype(np.float32)
+    then = then.reshape(-1, 3)
+    ok = (now > 20) & (now < 250) & (then > 20)
+    gain = np.ones(3, np.float32)
+    for c in range(3):
+        if ok[:, c].sum() > 100:
+            gain[c] = np.median(then[ok[:, c], c] / now[ok[:, c], c])
+    gain[np.abs(gain - 1.0) < 0.005] = 1.0
+    return gain
+
+
+def test_the_frame_gain_is_numpys_median_of_the_ratios():
+    rng = np.random.default_rng(14)
+    for h, w, dim in ((480, 640, 0.8), (121, 163, 1.002), (720, 1280, 1.3), (241, 321, 0.97)):
+        background = rng.uniform(40, 190, (h // 2, w // 2, 3)).astype(np.float32)
+        image = np.clip(cv2.resize(background, (w, h), interpolation=cv2.INTER_NEAREST) / dim + rng.normal(0, 2, (h, w, 3)) + 0.5, 0, 255)
+        image = image.astype(np.uint8)
+        gain = evidence_kernels.frame_gain(image, background, 8, 2)
+        assert gain.dtype == np.float32 and np.array_equal(gain, _numpy_gain(image, background))
+        assert np.allclose(gain, dim, atol=0.05)
+    background = rng.uniform(21, 240, (60, 80, 3)).astype(np.float32)
+    same = cv2.resize(np.rint(background * 1.003).astype(np.uint8), (160, 120), interpolation=cv2.INTER_NEAREST)
+    assert np.array_equal(evidence_kernels.frame_gain(same, background, 8, 2), np.ones(3, np.float32))  # within 0.005 of 1: 1
+    for trial in range(20):  # odd and even counts of samples (an even count's median is a mean of two)
+        background = rng.uniform(10, 250, (60 + trial, 80, 3)).astype(np.float32)
+        image = rng.integers(0, 256, (120 + 2 * trial, 160, 3), dtype=np.uint8)
+        assert np.array_equal(evidence_kernels.frame_gain(image, background, 4, 2), _numpy_gain(image, background, 4))
+    dark = np.full((120, 160, 3), 10, np.uint8)  # too few cells to measure: no gain
+    assert np.array_equal(evidence_kernels.frame_gain(dark, np.full((60, 80, 3), 100, np.float32), 8, 2), np.ones(3, np.float32))
+
+
+def test_still_patches_are_absorbed_as_labelling_every_patch_gives():
+    """The flood fill from calm cells against cv2.connectedComponents' patches: a patch with a cell that changed
+    lately stays, a still one is learnt where ``learn`` is set."""
+    rng = np.random.default_rng(15)
+    for trial in range(20):
+        moving = (cv2.GaussianBlur(rng.random((60, 80)), (0, 0), 2) > 0.55).astype(np.uint8)
+        calm = np.where(rng.random((60, 80)) < 0.3, 0, 9).astype(np.uint8)
+        if trial % 2 == 0:
+            calm[:, 40:] = 9  # the right half's patches are still (unless they reach into the left half)
+        learn = (rng.random((60, 80)) < 0.9).astype(np.uint8)
+        background = rng.uniform(0, 255, (60, 80, 3)).astype(np.float32)
+        previous = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+        n, labels = cv2.connectedComponents(moving, connectivity=8)
+        changing = np.zeros(n, bool)
+        changing[0] = True
+        changing[labels[(moving > 0) & (calm < 5)]] = True
+        still = ~changing[labels] & (learn > 0)
+        want_background, want_moving = background.copy(), moving.copy()
+        want_background[still] = previous[still]
+        want_moving[still] = 0
+        evidence_kernels.absorb_still_patches(moving, calm, learn, background, previous, 5)
+        assert np.array_equal(moving, want_moving) and np.array_equal(background, want_background)
+        assert trial % 2 or still.any()
+
+
+def test_the_subsampled_mask_is_numpys_strided_copy():
+    rng = np.random.default_rng(16)
+    for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
+        mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
+        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale)
+        assert np.array_equal(small, mask[::scale, ::scale])
+        ys, xs = np.nonzero(small)
+        assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
+    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2)[1:] == (0, 0, 0, 0)
