@@ -108,6 +108,11 @@ def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: n
     return o + dist[:, None] * d
 
 
+MOVING_SHARE = 0.5  # at least this share of the particles along rays goes to the rays of the moving map's own blobs:
+# a white ball on a white wall is one moving blob among a hundred specks of the colour mask, and a fair share per ray left it a few particles
+# A moving blob's size is a ball's only roughly: a slow ball's trail (the background half learnt where it just was) can
+# double it, a ball whose middle matches the wall behind it moves at its edges only. Its depth range allows that much.
+MOVING_SLACK = 2.5
 HELD_MIN_PX = 3.0  # a tracked ball holds a blob when it projects within the blob's radius, or this many pixels of its centre
 
 
@@ -126,19 +131,23 @@ class RayProposal:
     def __call__(self, views: Sequence[CameraEvidence], n: int, mine: TrackedBalls | None, rng: np.random.Generator) -> np.ndarray:
         """``mine``: this target's tracked balls (their blobs make no crossings: their balls have particles)."""
         s = self.settings
-        origins, dirs, near, far = [], [], [], []
+        origins, dirs, near, far, moved = [], [], [], [], []
         seeds = [v.proposal_seeds() for v in views]
         for v, b in zip(views, seeds):
             if len(b) == 0:
                 continue
             if s.depth_from_size:
                 lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
+                if b.moved is not None and b.moved.any():  # a moving blob's size says less: see MOVING_SLACK
+                    wide = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max, MOVING_SLACK)
+                    lo, hi = np.where(b.moved, wide[0], lo), np.where(b.moved, wide[1], hi)
             else:
                 lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
             origins.append(b.origins)
             dirs.append(b.directions)
             near.append(lo)
             far.append(hi)
+            moved.append(b.moved if b.moved is not None else np.zeros(len(b), bool))
         if not origins:  # nothing of this colour in any image: search blindly
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
         crossings = np.zeros((0, 3))
@@ -157,9 +166,20 @@ class RayProposal:
                     held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
-        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)
+        pts = self._on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng)
         if n_cross:
             at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
             at = np.r_[at, rng.permutation(len(crossings))[: n_cross - len(at)]]
             pts = np.vstack([pts, crossings[at] + rng.normal(0.0, 0.5 * self.radius, (n_cross, 3))])
         return pts
+
+    @staticmethod
+    def _on_rays(origins, dirs, near, far, moved, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` particles along the rays: the moving map's own rays share at least MOVING_SHARE of them (more when they
+        are more than that share of the rays), the others the rest; each group fairly among its rays."""
+        m = int(moved.sum())
+        if m == 0 or m == len(moved):
+            return particles_on_rays(origins, dirs, near, far, n, rng)[0]
+        n_moved = int(round(max(MOVING_SHARE, m / len(moved)) * n))
+        parts = [particles_on_rays(origins[k], dirs[k], near[k], far[k], c, rng)[0] for k, c in ((moved, n_moved), (~moved, n - n_moved))]
+        return np.vstack(parts)
