@@ -142,10 +142,13 @@ def test_a_moving_blob_among_a_hundred_specks_gets_its_share_of_the_particles_at
         o, d = cam.rays(centres)
         views.append(replace(v, seeds=Seeds(centres, radii, o, d, np.r_[np.zeros(100, bool), True])))
     n = 1000
-    pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS)(views, n, None, np.random.default_rng(0))
+    pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS, moving_first=True)(views, n, None, np.random.default_rng(0))
     assert len(pts) == n
     near = np.linalg.norm(pts - ball, axis=1) < RADIUS
     # about half of them go along the ball's two rays (one per camera), spread over its depth range: some hit the ball
     on_rays = sum(np.linalg.norm(cam.project(pts)[0] - cam.project(ball[None])[0], axis=1) < 1.0 for cam in rig.cameras)
     assert on_rays.sum() >= MOVING_SHARE * n - 2
     assert near.sum() >= 5
+    # a ball of one hue is a colour blob: its shares stay fair
+    pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS)(views, n, None, np.random.default_rng(0))
+    assert sum(np.linalg.norm(cam.project(pts)[0] - cam.project(ball[None])[0], axis=1) < 1.0 for cam in rig.cameras).sum() < 50
