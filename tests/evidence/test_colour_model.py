@@ -123,3 +123,14 @@ def test_a_white_ball_learnt_against_a_white_wall_leaves_no_speckle_on_the_wall(
     assert in_range[100:380, 50:300].all()  # the range takes the whole wall
     assert wall.mean() < 0.01  # hardly a speck of it is kept
     assert ColourModel.for_target(PINK).odds == 1.0  # a ball of one hue keeps even odds
+
+
+def test_a_white_ball_s_model_keeps_even_odds_until_it_has_learnt():
+    """Before any track taught it, the ball's histogram is the range's box: a still white ball in a colour rarer
+    in the room than that box's share is found by its colour alone, so the odds grow only with what was learnt."""
+    white = Target("white", (0, 0, 150), (179, 50, 255))
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 4, 220)  # a white wall
+    hsv[200:224, 300:326] = (60, 30, 230)  # a faintly green-white ball, 1/500 of the image: rarer than the box's 1/270 per bin
+    model = ColourModel.for_target(white)
+    assert model.probability(hsv)[212, 312] > 127
