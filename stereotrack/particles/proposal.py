@@ -100,6 +100,17 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
+def _still(view: CameraEvidence) -> np.ndarray:
+    """Per blob of the view: no pixel of its box moves (the moving map's summed-area table)."""
+    b, ii = view.blobs, view.moving_integral
+    h, w = ii.shape[0] - 1, ii.shape[1] - 1
+    x0 = np.clip(np.floor(b.centres[:, 0] - b.radii), 0, w).astype(int)
+    x1 = np.clip(np.ceil(b.centres[:, 0] + b.radii) + 1, 0, w).astype(int)
+    y0 = np.clip(np.floor(b.centres[:, 1] - b.radii), 0, h).astype(int)
+    y1 = np.clip(np.ceil(b.centres[:, 1] + b.radii) + 1, 0, h).astype(int)
+    return (ii[y1, x1] - ii[y0, x1] - ii[y1, x0] + ii[y0, x0]) == 0
+
+
 def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: np.random.Generator) -> np.ndarray:
     """Particles spread over the camera's field of view between d_min and d_max (no information)."""
     uv = rng.random((n, 2)) * np.array([camera.width, camera.height])
@@ -168,6 +179,10 @@ class RayProposal:
                     uv, ok = v.camera.project(mine.centres)
                     d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
                     held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
+            if self.moving_first and all(v.moving_integral is not None for v in views):
+                # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
+                still = [_still(v) for v in views]
+                held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts = self._on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng)

@@ -152,3 +152,29 @@ def test_a_moving_blob_among_a_hundred_specks_gets_its_share_of_the_particles_at
     # a ball of one hue is a colour blob: its shares stay fair
     pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS)(views, n, None, np.random.default_rng(0))
     assert sum(np.linalg.norm(cam.project(pts)[0] - cam.project(ball[None])[0], axis=1) < 1.0 for cam in rig.cameras).sum() < 50
+
+
+def test_a_white_ball_s_crossings_are_its_moving_blobs_only():
+    """The specks of a white wall's colour cross everywhere; for a ball of every hue only blobs with moving
+    pixels make crossings (a ball of one hue keeps every blob's)."""
+    import cv2
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles.proposal import RayProposal
+
+    rig = default_rig()
+    balls = np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1]])  # the first moves, the second is a still patch of the colour
+    masks, _ = disc_masks(rig, balls)
+    views = []
+    for cam, m in zip(rig.cameras, masks):
+        (uv,), _, (z,) = cam.view(balls[:1])
+        fg = np.zeros((m.shape[0] // 2, m.shape[1] // 2), np.uint8)
+        cv2.circle(fg, (int(uv[0] / 2), int(uv[1] / 2)), int(cam.apparent_radius(RADIUS, z) / 2), 1, -1)
+        views.append(CameraEvidence.from_mask(cam, m, foreground=fg))
+    settings = TrackerSettings(crossing_share=1.0)
+    pts = RayProposal(settings, RADIUS, moving_first=True)(views, 400, None, np.random.default_rng(0))
+    assert (np.linalg.norm(pts - balls[0], axis=1) < 3 * RADIUS).sum() > 300
+    assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() == 0
+    pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
+    assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() > 100
