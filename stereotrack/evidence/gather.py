@@ -205,5 +205,9 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
             new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
         take(sb, new, False)
     return Seeds(
-        np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3), np.concatenate(moved)
+        np.vstack(centres).reshape(-1, 2),
+        np.concatenate(radii),
+        np.vstack(o).reshape(-1, 3),
+        np.vstack(d).reshape(-1, 3),
+        np.concatenate(moved),
     )

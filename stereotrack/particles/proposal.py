@@ -185,7 +185,9 @@ class RayProposal:
                 held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
-        pts = self._on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng)
+        pts = self._on_rays(
+            np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng
+        )
         if n_cross:
             at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
             at = np.r_[at, rng.permutation(len(crossings))[: n_cross - len(at)]]
