@@ -28,6 +28,7 @@ class Seeds:
     radii: np.ndarray  # M apparent radii, pixels (half the blob's larger side)
     origins: np.ndarray  # M x 3
     directions: np.ndarray  # M x 3 unit
+    moved: np.ndarray | None = None  # M bool: the blob is (about) a blob of the moving map (None: none is)
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -177,14 +178,16 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
     blobs of the colour that is surely the ball's that no seed holds yet."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
+    moved = [np.zeros(int(keep.sum()), bool)]
 
-    def take(more: Blobs, new: np.ndarray) -> None:
+    def take(more: Blobs, new: np.ndarray, moving: bool) -> None:
         if new.any():
             mo, md = camera.rays(more.centres[new])
             centres.append(more.centres[new])
             radii.append(more.radii[new])
             o.append(mo)
             d.append(md)
+            moved.append(np.full(int(new.sum()), moving))
 
     if moving is not None:
         mb = find_blobs(moving, blob_method, min_blob_area)
@@ -193,7 +196,8 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
             dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
             same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
             new &= ~same.any(axis=1)
-        take(mb, new)
+            moved[0] = same.any(axis=0)[keep]  # a colour blob that is a moving one too moves
+        take(mb, new, True)
     if sure is not None and not keep.all():
         sb = find_blobs(sure, blob_method, min_blob_area)
         new = ball_like(sb, camera.focal_px, *ball)
@@ -201,5 +205,11 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
         if len(sb) and len(held_c):
             dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)
             new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
-        take(sb, new)
-    return Seeds(np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3))
+        take(sb, new, False)
+    return Seeds(
+        np.vstack(centres).reshape(-1, 2),
+        np.concatenate(radii),
+        np.vstack(o).reshape(-1, 3),
+        np.vstack(d).reshape(-1, 3),
+        np.concatenate(moved),
+    )

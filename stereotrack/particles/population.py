@@ -78,7 +78,7 @@ class Population:
         self.rng = rng
         self.likelihood = likelihood or make_likelihood(settings, target)
         self.motion = motion or RandomWalk(settings.motion_sigma)
-        self.proposal = proposal or RayProposal(settings, target.radius)
+        self.proposal = proposal or RayProposal(settings, target.radius, target.any_hue)
         self.state: PopulationState | None = None
 
     def step(self, views: Sequence[CameraEvidence], dt: float, balls: TrackedBalls | None = None) -> PopulationState:

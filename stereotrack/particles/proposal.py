@@ -100,6 +100,17 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
+def _still(view: CameraEvidence) -> np.ndarray:
+    """Per blob of the view: no pixel of its box moves (the moving map's summed-area table)."""
+    b, ii = view.blobs, view.moving_integral
+    h, w = ii.shape[0] - 1, ii.shape[1] - 1
+    x0 = np.clip(np.floor(b.centres[:, 0] - b.radii), 0, w).astype(int)
+    x1 = np.clip(np.ceil(b.centres[:, 0] + b.radii) + 1, 0, w).astype(int)
+    y0 = np.clip(np.floor(b.centres[:, 1] - b.radii), 0, h).astype(int)
+    y1 = np.clip(np.ceil(b.centres[:, 1] + b.radii) + 1, 0, h).astype(int)
+    return (ii[y1, x1] - ii[y0, x1] - ii[y1, x0] + ii[y0, x0]) == 0
+
+
 def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: np.random.Generator) -> np.ndarray:
     """Particles spread over the camera's field of view between d_min and d_max (no information)."""
     uv = rng.random((n, 2)) * np.array([camera.width, camera.height])
@@ -108,6 +119,11 @@ def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: n
     return o + dist[:, None] * d
 
 
+MOVING_SHARE = 0.5  # at least this share of the particles along rays goes to the rays of the moving map's own blobs:
+# a white ball on a white wall is one moving blob among a hundred specks of the colour mask, and a fair share per ray left it a few particles
+# A moving blob's size is a ball's only roughly: a slow ball's trail (the background half learnt where it just was) can
+# double it, a ball whose middle matches the wall behind it moves at its edges only. Its depth range allows that much.
+MOVING_SLACK = 2.5
 HELD_MIN_PX = 3.0  # a tracked ball holds a blob when it projects within the blob's radius, or this many pixels of its centre
 
 
@@ -119,26 +135,34 @@ class RayProposal:
     cross; with no blob anywhere, spread blindly over the first camera's view.
     """
 
-    def __init__(self, settings: TrackerSettings, radius: float):
+    def __init__(self, settings: TrackerSettings, radius: float, moving_first: bool = False):
         self.settings = settings
         self.radius = radius
+        # A ball of every hue (Target.any_hue): its colour mask is specks of the wall, its moving blobs come first
+        # (MOVING_SHARE, MOVING_SLACK). A ball of one hue is a colour blob; there the shares stay fair (the moving
+        # share cost hands seed 5 0.58 -> -0.18 and hue_wall seed 3 0.91 -> 0.63).
+        self.moving_first = moving_first
 
     def __call__(self, views: Sequence[CameraEvidence], n: int, mine: TrackedBalls | None, rng: np.random.Generator) -> np.ndarray:
         """``mine``: this target's tracked balls (their blobs make no crossings: their balls have particles)."""
         s = self.settings
-        origins, dirs, near, far = [], [], [], []
+        origins, dirs, near, far, moved = [], [], [], [], []
         seeds = [v.proposal_seeds() for v in views]
         for v, b in zip(views, seeds):
             if len(b) == 0:
                 continue
             if s.depth_from_size:
                 lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
+                if self.moving_first and b.moved is not None and b.moved.any():  # a moving blob's size says less: see MOVING_SLACK
+                    wide = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max, MOVING_SLACK)
+                    lo, hi = np.where(b.moved, wide[0], lo), np.where(b.moved, wide[1], hi)
             else:
                 lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
             origins.append(b.origins)
             dirs.append(b.directions)
             near.append(lo)
             far.append(hi)
+            moved.append(b.moved if self.moving_first and b.moved is not None else np.zeros(len(b), bool))
         if not origins:  # nothing of this colour in any image: search blindly
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
         crossings = np.zeros((0, 3))
@@ -155,11 +179,28 @@ class RayProposal:
                     uv, ok = v.camera.project(mine.centres)
                     d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
                     held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
+            if self.moving_first and all(v.moving_integral is not None for v in views):
+                # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
+                still = [_still(v) for v in views]
+                held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
-        pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)
+        pts = self._on_rays(
+            np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng
+        )
         if n_cross:
             at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
             at = np.r_[at, rng.permutation(len(crossings))[: n_cross - len(at)]]
             pts = np.vstack([pts, crossings[at] + rng.normal(0.0, 0.5 * self.radius, (n_cross, 3))])
         return pts
+
+    @staticmethod
+    def _on_rays(origins, dirs, near, far, moved, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` particles along the rays: the moving map's own rays share at least MOVING_SHARE of them (more when they
+        are more than that share of the rays), the others the rest; each group fairly among its rays."""
+        m = int(moved.sum())
+        if m == 0 or m == len(moved):
+            return particles_on_rays(origins, dirs, near, far, n, rng)[0]
+        n_moved = int(round(max(MOVING_SHARE, m / len(moved)) * n))
+        parts = [particles_on_rays(origins[k], dirs[k], near[k], far[k], c, rng)[0] for k, c in ((moved, n_moved), (~moved, n - n_moved))]
+        return np.vstack(parts)

@@ -87,3 +87,23 @@ def test_labelling_only_the_box_of_the_set_pixels_gives_the_whole_masks_labels()
         cv2.setNumThreads(threads)
     empty = find_blobs(np.zeros((48, 64), np.uint8))
     assert len(empty) == 0 and not empty.labels.any()
+
+
+def test_seeds_say_which_blobs_move():
+    """A blob of the colour mask that is a blob of the moving map too is flagged ``moved`` (the proposal gives the
+    moving blobs their share of the particles), a still speck of the colour is not, nor a wall's."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.circle(mask, (200, 200), 12, 1, -1)  # a ball, moving
+    cv2.circle(mask, (450, 300), 12, 1, -1)  # a ball-like patch of the wall's colour, still
+    foreground = np.zeros((240, 320), np.uint8)  # motion.py's grid: half the image's
+    cv2.circle(foreground, (100, 100), 6, 1, -1)
+    ev = CameraEvidence.from_mask(camera, mask, ball=(R, 0.3, 5.0), foreground=foreground)
+    seeds = ev.proposal_seeds()
+    assert len(seeds) == 2 and seeds.moved is not None
+    moving = np.linalg.norm(seeds.centres - (200, 200), axis=1) < 3
+    assert moving.sum() == 1 and seeds.moved[moving].all() and not seeds.moved[~moving].any()

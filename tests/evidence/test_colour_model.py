@@ -96,3 +96,41 @@ def test_a_damaged_model_file_is_one_clear_error(tmp_path, damage, message):
         path.write_text("targets: []\n")
     with pytest.raises(StereotrackError, match=message):
         load_colour_model(path)
+
+
+def test_a_white_ball_learnt_against_a_white_wall_leaves_no_speckle_on_the_wall():
+    """A white ball's hue and saturation are a white wall's: learnt from the tracked ball, the ball's histogram
+    comes close to the wall's. With equal odds p hovered about 0.5 on the wall and the mask (p > 0.5) was
+    speckle over it; a ball of every hue needs its colour WHITE_ODDS times likelier on the ball."""
+    white = Target("white", (0, 0, 150), (179, 50, 255))
+    rng = np.random.default_rng(5)
+
+    def frame():
+        hsv = np.zeros((480, 640, 3), np.uint8)
+        hsv[:] = (100, 12, 220)  # a white wall, faintly blue
+        cv2.circle(hsv, (400, 240), 18, (100, 14, 235), -1)  # the white ball, a little brighter
+        bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR).astype(np.int16)
+        return to_hsv(np.clip(bgr + rng.normal(0, 3, bgr.shape).round(), 0, 255).astype(np.uint8))
+
+    model = ColourModel.for_target(white)
+    for _ in range(30):
+        hsv = frame()
+        model.learn(hsv, target_mask(hsv, white), np.array([[400.0, 240.0]]), np.array([18.0]))
+    hsv = frame()
+    in_range = target_mask(hsv, white)
+    wall = (model.probability(hsv) > 127) & (in_range > 0)
+    wall[200:280, 360:440] = False
+    assert in_range[100:380, 50:300].all()  # the range takes the whole wall
+    assert wall.mean() < 0.01  # hardly a speck of it is kept
+    assert ColourModel.for_target(PINK).odds == 1.0  # a ball of one hue keeps even odds
+
+
+def test_a_white_ball_s_model_keeps_even_odds_until_it_has_learnt():
+    """Before any track taught it, the ball's histogram is the range's box: a still white ball in a colour rarer
+    in the room than that box's share is found by its colour alone, so the odds grow only with what was learnt."""
+    white = Target("white", (0, 0, 150), (179, 50, 255))
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 4, 220)  # a white wall
+    hsv[200:224, 300:326] = (60, 30, 230)  # a faintly green-white ball, 1/500 of the image: rarer than the box's 1/270 per bin
+    model = ColourModel.for_target(white)
+    assert model.probability(hsv)[212, 312] > 127

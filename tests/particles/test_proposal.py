@@ -118,3 +118,63 @@ def test_ray_crossings_refuse_skip_flags_that_are_not_one_per_blob():
     views = evidence(rig, masks)
     with pytest.raises(ValueError, match="one flag per blob"):
         ray_crossings(views, RADIUS, 0.2, 5.0, [np.zeros(1, bool), np.zeros(2, bool)])
+
+
+def test_a_moving_blob_among_a_hundred_specks_gets_its_share_of_the_particles_at_the_ball_s_depth():
+    """A white ball on a white wall: one blob of the moving map among a hundred specks of the colour mask. A fair
+    share per ray left it a few particles; it gets proposal.MOVING_SHARE of them. Its blob is twice the ball's size
+    (a slow ball's trail), and its depth range still reaches the ball."""
+    from dataclasses import replace
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import Seeds
+    from stereotrack.particles.proposal import MOVING_SHARE, RayProposal
+
+    rig = default_rig()
+    ball = np.array([0.1, 1.6, -0.1])
+    rng = np.random.default_rng(3)
+    views = []
+    for cam, v in zip(rig.cameras, evidence(rig, disc_masks(rig, ball[None])[0])):
+        (uv,), _, (z,) = cam.view(ball[None])
+        specks = rng.uniform((20, 20), (620, 460), (100, 2))
+        centres = np.vstack([specks, uv[None]])
+        radii = np.r_[np.full(100, 2.0), 2 * cam.apparent_radius(RADIUS, z)]  # the trail doubles the moving blob
+        o, d = cam.rays(centres)
+        views.append(replace(v, seeds=Seeds(centres, radii, o, d, np.r_[np.zeros(100, bool), True])))
+    n = 1000
+    pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS, moving_first=True)(views, n, None, np.random.default_rng(0))
+    assert len(pts) == n
+    near = np.linalg.norm(pts - ball, axis=1) < RADIUS
+    # about half of them go along the ball's two rays (one per camera), spread over its depth range: some hit the ball
+    on_rays = sum(np.linalg.norm(cam.project(pts)[0] - cam.project(ball[None])[0], axis=1) < 1.0 for cam in rig.cameras)
+    assert on_rays.sum() >= MOVING_SHARE * n - 2
+    assert near.sum() >= 5
+    # a ball of one hue is a colour blob: its shares stay fair
+    pts = RayProposal(TrackerSettings(crossing_share=0.0), RADIUS)(views, n, None, np.random.default_rng(0))
+    assert sum(np.linalg.norm(cam.project(pts)[0] - cam.project(ball[None])[0], axis=1) < 1.0 for cam in rig.cameras).sum() < 50
+
+
+def test_a_white_ball_s_crossings_are_its_moving_blobs_only():
+    """The specks of a white wall's colour cross everywhere; for a ball of every hue only blobs with moving
+    pixels make crossings (a ball of one hue keeps every blob's)."""
+    import cv2
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles.proposal import RayProposal
+
+    rig = default_rig()
+    balls = np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1]])  # the first moves, the second is a still patch of the colour
+    masks, _ = disc_masks(rig, balls)
+    views = []
+    for cam, m in zip(rig.cameras, masks):
+        (uv,), _, (z,) = cam.view(balls[:1])
+        fg = np.zeros((m.shape[0] // 2, m.shape[1] // 2), np.uint8)
+        cv2.circle(fg, (int(uv[0] / 2), int(uv[1] / 2)), int(cam.apparent_radius(RADIUS, z) / 2), 1, -1)
+        views.append(CameraEvidence.from_mask(cam, m, foreground=fg))
+    settings = TrackerSettings(crossing_share=1.0)
+    pts = RayProposal(settings, RADIUS, moving_first=True)(views, 400, None, np.random.default_rng(0))
+    assert (np.linalg.norm(pts - balls[0], axis=1) < 3 * RADIUS).sum() > 300
+    assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() == 0
+    pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
+    assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() > 100
