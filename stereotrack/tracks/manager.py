@@ -25,7 +25,7 @@ shrink it).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,6 +41,8 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
+TRAVEL = 2.0  # a track is settled (its ball protects its disc from the background update) once it has gone this many ball radii from where it was first reported ...
+SETTLED_FRAMES = 8  # ... or been reported this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
 
@@ -66,6 +68,9 @@ class _Track:
     in_flight: bool = False  # gravity applies to its prediction
     parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
     prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
+    first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
+    shown: int = 0  # frames it has been past tentative
+    settled: bool = False  # see ``TrackManager._settled``
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -108,10 +113,12 @@ class TrackManager:
     ...     tracks = manager.update(objects, frame.time)
     """
 
-    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None):
-        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view."""
+    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None, radius: Mapping[str, float] | None = None):
+        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view.
+        ``radius``: each target's ball radius (metres), for ``TrackEstimate.settled``; without it a track settles by age only."""
         self.settings = settings or TrackSettings()
         self.rig = rig
+        self.radius = dict(radius or {})
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
@@ -130,7 +137,7 @@ class TrackManager:
         """
         states = [self._predict(tr, time) for tr in self._tracks]
         seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
-        return tuple(self._estimate(tr, x, P, v) for tr, (x, P), v in zip(self._tracks, states, seen))
+        return tuple(self._estimate(tr, x, P, v, self._settled(tr, x[:3])) for tr, (x, P), v in zip(self._tracks, states, seen))
 
     def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
         """Take this frame's objects (seen at ``time`` seconds); return every live track after the update.
@@ -145,6 +152,10 @@ class TrackManager:
             tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
             tr.hit = False
             tr.contested = False
+            if tr.confirmed:  # the frames it was past tentative, counted as ``predicted`` showed them
+                tr.settled = self._settled(tr, tr.x[:3])
+                tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
+                tr.shown += 1
         by_target: dict[str, list[int]] = {}
         for i, obj in enumerate(objects):
             by_target.setdefault(obj.target, []).append(i)
@@ -180,7 +191,7 @@ class TrackManager:
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
-        return tuple(self._estimate(t, t.x, t.P, v) for t, v in zip(self._tracks, seen))
+        return tuple(self._estimate(t, t.x, t.P, v, t.settled) for t, v in zip(self._tracks, seen))
 
     def reset(self) -> None:
         """Forget every track (ids keep counting up: they stay unique within the run)."""
@@ -302,6 +313,19 @@ class TrackManager:
         self._next_id += 1
         return tr
 
+    def _settled(self, tr: _Track, position: np.ndarray) -> bool:
+        """Has this track, at ``position`` this frame, gone TRAVEL ball radii from where it was first past tentative,
+        or been past tentative SETTLED_FRAMES frames (this one included)? Then its ball may keep the background from
+        learning its disc (evidence/motion.py). A new track that has not moved may sit on a ghost (a ball that was
+        there when the background started, then left): kept out of the update, the ghost would last for ever."""
+        if tr.settled:
+            return True
+        if not tr.confirmed:
+            return False
+        start = position if tr.first_shown is None else tr.first_shown
+        radius = self.radius.get(tr.target, np.inf)
+        return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
+
     def _expired(self, tr: _Track, time: float) -> bool:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
         return time - tr.last_hit > limit + _EPS_TIME
@@ -316,7 +340,7 @@ class TrackManager:
             inside &= ok & cam.in_image(uv)
         return inside
 
-    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool) -> TrackEstimate:
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
@@ -332,4 +356,5 @@ class TrackManager:
             n_particles=tr.n_particles,
             reported=bool(reported),
             flight=tr.parabola,
+            settled=settled,
         )

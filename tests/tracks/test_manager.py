@@ -316,3 +316,23 @@ def test_clutter_far_apart_makes_no_fast_track():
     for i in range(30):
         tracks = m.update([obj(rng.uniform(-3, 3, 3) + [0.0, 8.0, 0.0])], i / 60)
         assert not any(tr.reported for tr in tracks)
+
+
+def test_a_track_settles_once_it_has_moved_two_radii_or_been_shown_a_while():
+    """``settled`` (a ball that may keep the background from learning its disc, evidence/motion.py): a ball that flies
+    off settles as soon as it has gone two radii from where its track was first past tentative; one that stays put
+    (maybe a ghost) only after SETTLED_FRAMES frames; ``predicted`` tells the same as the next ``update``."""
+    from stereotrack.tracks.manager import SETTLED_FRAMES
+
+    fps, radius = 30.0, 0.03
+    for speed, settles in ((1.5, (1, 2)), (0.0, (SETTLED_FRAMES - 1,))):  # 5 cm a frame: past 6 cm in 2 or 3 frames
+        m = TrackManager(TrackSettings(), radius={"red": radius})
+        shown = []
+        for i in range(40):
+            t = i / fps
+            before = [e.settled for e in m.predicted(t) if e.state != "tentative"]
+            after = [e.settled for e in m.update([obj([speed * t, 0.0, 2.0])], t) if e.state != "tentative"]
+            if before:
+                shown.append(before[0])
+                assert after[0] == before[0]
+        assert shown.index(True) in settles and all(shown[shown.index(True) :])
