@@ -42,6 +42,7 @@ _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count 
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
 TRAVEL = 2.0  # a track is settled (its ball protects its disc from the background update) once it has gone this many ball radii from where it was first reported ...
+HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
 SETTLED_FRAMES = 8  # ... or been reported this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
@@ -68,6 +69,8 @@ class _Track:
     in_flight: bool = False  # gravity applies to its prediction
     parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
     prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
+    launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
+    caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
     first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
@@ -121,6 +124,7 @@ class TrackManager:
         self.radius = dict(radius or {})
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
+        self._up = None if up is None else np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
         self._next_id = 1
         self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -170,8 +174,10 @@ class TrackManager:
                 cols = np.flatnonzero(free)
                 if not tracks or not len(cols):
                     continue
-                for ti, cj in self._assign(tracks, z[cols], R[cols]):
+                for ti, cj, caught in self._assign(tracks, z[cols], R[cols], time):
                     j = cols[cj]
+                    if caught:
+                        self._catch(tracks[ti], time)
                     self._correct(tracks[ti], z[j], R[j], objs[j], time)
                     free[j] = False
             if s.max_speed > 0:
@@ -235,15 +241,49 @@ class TrackManager:
             R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
         return R
 
-    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray) -> list[tuple[int, int]]:
-        """Gated global assignment: pairs (track index, object index) with squared Mahalanobis distance <= gate."""
+    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float) -> list[tuple[int, int, bool]]:
+        """Gated global assignment: (track index, object index, caught) with squared Mahalanobis distance <= gate.
+        A flying ball missed since its latest hit may have been caught: it is then near where it was last seen, not
+        down its parabola. Each such track is also tried there (``_caught``); ``caught`` says that hypothesis won."""
         pos = np.array([t.x[:3] for t in tracks])  # T x 3
         Pp = np.array([t.P[:3, :3] for t in tracks])  # T x 3 x 3
+        z, R = np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float)
         # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
-        d2, cost = association_costs(pos, Pp, np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
+        d2, cost = association_costs(pos, Pp, z, R)
         gated = d2 <= self.settings.gate
+        caught = np.zeros(d2.shape, bool)
+        held = [(i, self._caught(t, time)) for i, t in enumerate(tracks)]
+        held = [(i, h) for i, h in held if h is not None]
+        if held:
+            rows = np.array([i for i, _ in held])
+            d2h, costh = association_costs(np.array([h[0] for _, h in held]), np.array([h[1] for _, h in held]), z, R)
+            better = (d2h <= self.settings.gate) & (~gated[rows] | (costh < cost[rows]))
+            cost[rows] = np.where(better, costh, cost[rows])
+            gated[rows] |= better
+            caught[rows] = better
         rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
-        return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]
+        return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
+
+    def _caught(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where a flying ball missed since its latest hit would be had a hand caught it then: (position, covariance)
+        around that hit, growing as a hand may carry it (HAND_SPEED); None for a ball not flying or not missed."""
+        if tr.caught_at is None or not tr.in_flight or tr.streak > 0:  # streak: 0 once a frame was missed (``update``)
+            return None
+        dt = time - tr.last_hit
+        position, P = tr.caught_at
+        return position, P + np.eye(3) * (HAND_SPEED * dt) ** 2
+
+    def _catch(self, tr: _Track, time: float) -> None:
+        """The ball was caught at its latest hit: it stops flying and starts again from there, at rest in a hand."""
+        position, P = self._caught(tr, time)
+        tr.x = np.r_[position, 0.0, 0.0, 0.0]
+        tr.P = np.zeros((6, 6))
+        tr.P[:3, :3] = P
+        tr.P[3:, 3:] = np.eye(3) * HAND_SPEED**2
+        tr.in_flight = False
+        tr.parabola = None
+        tr.history = []
+        tr.caught_at = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
@@ -281,6 +321,7 @@ class TrackManager:
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
+        tr.caught_at = (tr.x[:3].copy(), tr.P[:3, :3].copy()) if tr.in_flight else None
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
             tr.confirmed = True
         # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third
@@ -300,7 +341,10 @@ class TrackManager:
         times = np.array([t for t, _ in tr.history])
         positions = np.array([p for _, p in tr.history]).reshape(-1, 3)
         if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
-            tr.in_flight = in_free_flight(times, positions, self.gravity)
+            flying = in_free_flight(times, positions, self.gravity)
+            if flying and not tr.in_flight:
+                tr.launch = float(np.min(positions @ self._up))
+            tr.in_flight = flying
         enough = len(times) >= 3 and times[-1] - times[0] > _EPS_TIME
         tr.parabola = fit_parabola(times, positions, self.gravity) if tr.in_flight and enough else None
 
@@ -346,6 +390,9 @@ class TrackManager:
         # still reported, at its predicted position, for at most report_coasting seconds.
         coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view
         reported = tr.confirmed and (tr.hit or coasting_ok)
+        if not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch:
+            # A flying ball lost on its way down, past the height it was thrown from, was most likely caught there.
+            x = np.r_[tr.caught_at[0], 0.0, 0.0, 0.0]
         return TrackEstimate(
             track_id=tr.track_id,
             target=tr.target,

@@ -336,3 +336,31 @@ def test_a_track_settles_once_it_has_moved_two_radii_or_been_shown_a_while():
                 shown.append(before[0])
                 assert after[0] == before[0]
         assert shown.index(True) in settles and all(shown[shown.index(True) :])
+
+
+def test_a_ball_caught_out_of_sight_is_looked_for_and_reported_where_it_was_caught():
+    """A ball thrown up from a hand and caught back at that height, then hidden by the fingers for 0.2 s while the
+    hand carries it slowly: its track neither reports it falling on down its parabola (coasting) nor pulls its
+    first sight in the hand towards that parabola. One id throughout."""
+    fps, t_catch = 30.0, 0.5
+    p0, v0, hand = np.array([0.0, 1.5, 0.0]), np.array([0.4, 0.0, 2.45]), np.array([0.3, 0.0, -0.2])
+
+    def truth(t):
+        if t <= t_catch:
+            return p0 + v0 * t + 0.5 * np.array([0.0, 0.0, -9.81]) * t * t
+        return truth(t_catch) + hand * (t - t_catch)
+
+    rng = np.random.default_rng(6)
+    m = TrackManager(TrackSettings(up=(0.0, 0.0, 1.0)))
+    coasting, back = [], []
+    for i in range(int(0.95 * fps)):
+        t = i / fps
+        hidden = t_catch < t <= t_catch + 0.2 + 1e-9 or i == round((t_catch + 0.3) * fps)  # seen once in between
+        tracks = m.update([] if hidden else [obj(truth(t) + rng.normal(0, 0.003, 3), sigma=0.003)], t)
+        assert [tr.track_id for tr in tracks] == [1]
+        if t > t_catch + 0.2:
+            assert tracks[0].flight is None  # held, not flying: no parabola (no landing to predict)
+        if hidden and tracks[0].reported:
+            (coasting if t < t_catch + 0.25 else back).append(np.linalg.norm(tracks[0].position - truth(t)))
+    assert len(coasting) == 2 and max(coasting) < 0.05  # down the parabola: 8 and 17 cm off
+    assert len(back) == 1 and max(back) < 0.05  # at the parabola's speed: 11 cm off
