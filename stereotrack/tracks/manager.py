@@ -41,9 +41,9 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
-TRAVEL = 2.0  # a track is settled (its ball protects its disc from the background update) once it has gone this many ball radii from where it was first reported ...
+TRAVEL = 2.0  # a track is settled (its ball keeps its disc out of the background) once it has gone this many ball radii from where it was first shown ...
 HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
-SETTLED_FRAMES = 8  # ... or been reported this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
+SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
 
@@ -70,6 +70,7 @@ class _Track:
     parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
     prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
     launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
+    seen_at: np.ndarray | None = None  # its position after its latest hit
     caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
     first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
     shown: int = 0  # frames it has been past tentative
@@ -160,6 +161,7 @@ class TrackManager:
                 tr.settled = self._settled(tr, tr.x[:3])
                 tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
                 tr.shown += 1
+        self._forget_catches_of_seen_balls()
         by_target: dict[str, list[int]] = {}
         for i, obj in enumerate(objects):
             by_target.setdefault(obj.target, []).append(i)
@@ -273,6 +275,17 @@ class TrackManager:
         position, P = tr.caught_at
         return position, P + np.eye(3) * (HAND_SPEED * dt) ** 2
 
+    def _forget_catches_of_seen_balls(self) -> None:
+        """A lost track whose catch point is within a ball's width of where a track of its colour was seen last frame
+        was that ball seen twice (a duplicate track), not a ball caught out of sight: it keeps no catch hypothesis."""
+        seen = [t for t in self._tracks if t.streak > 0 and t.seen_at is not None]
+        for tr in self._tracks:
+            if tr.caught_at is None or tr.streak > 0:
+                continue
+            near = max(self.settings.min_separation, 2.0 * self.radius.get(tr.target, 0.0))
+            if any(t.target == tr.target and np.linalg.norm(t.seen_at - tr.caught_at[0]) < near for t in seen):
+                tr.caught_at = None
+
     def _catch(self, tr: _Track, time: float) -> None:
         """The ball was caught at its latest hit: it stops flying and starts again from there, at rest in a hand."""
         position, P = self._caught(tr, time)
@@ -321,7 +334,8 @@ class TrackManager:
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
-        tr.caught_at = (tr.x[:3].copy(), tr.P[:3, :3].copy()) if tr.in_flight else None
+        tr.seen_at = tr.x[:3].copy()
+        tr.caught_at = (tr.seen_at, tr.P[:3, :3].copy()) if tr.in_flight else None
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
             tr.confirmed = True
         # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third

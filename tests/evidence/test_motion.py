@@ -63,7 +63,9 @@ def test_where_a_ball_was_in_the_first_frame_leaves_no_ghost_a_track_could_keep(
     bg = BackgroundModel(cam, rate=0.05, threshold=30)
     bg.foreground(frame(cam, first))
     for i in range(1, 40):  # the ball moved on at once; a track holds its first place from the 5th frame on (settled as the manager says)
-        ghost = TrackedBalls(first[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]), np.array([i - 4 >= SETTLED_FRAMES]))
+        ghost = TrackedBalls(
+            first[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]), np.array([i - 4 >= SETTLED_FRAMES])
+        )
         fg = bg.foreground(frame(cam, later), ghost if i >= 5 else None)
     assert fg[v - 2 : v + 3, u - 2 : u + 3].sum() == 0
 

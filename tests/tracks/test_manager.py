@@ -364,3 +364,25 @@ def test_a_ball_caught_out_of_sight_is_looked_for_and_reported_where_it_was_caug
             (coasting if t < t_catch + 0.25 else back).append(np.linalg.norm(tracks[0].position - truth(t)))
     assert len(coasting) == 2 and max(coasting) < 0.05  # down the parabola: 8 and 17 cm off
     assert len(back) == 1 and max(back) < 0.05  # at the parabola's speed: 11 cm off
+
+
+def test_a_duplicate_track_lost_where_its_ball_is_still_seen_is_not_caught_back_to_life():
+    """One flying ball seen twice (two objects 5.5 cm apart in depth: two tracks). At the catch only the true object is
+    left for 0.1 s, then the second one comes back 4 cm off. The duplicate was lost where another track still saw
+    the ball: it was that ball seen twice, not a ball caught out of sight, so it is not matched back there."""
+    fps, t_catch = 30.0, 0.5
+    p0, v0 = np.array([0.0, 1.5, 0.0]), np.array([0.4, 0.0, 2.45])
+
+    def truth(t):
+        return p0 + v0 * min(t, t_catch) + 0.5 * np.array([0.0, 0.0, -9.81]) * min(t, t_catch) ** 2
+
+    m = TrackManager(TrackSettings(up=(0.0, 0.0, 1.0), accel_noise=2.0), radius={"red": 0.03})  # far down its arc: out of its gate
+    reported = []
+    for i in range(int(0.9 * fps)):
+        t = i / fps
+        twin = np.array([0.0, 0.055 if t <= t_catch else 0.04, 0.0])
+        objs = [obj(truth(t))] + ([] if t_catch < t <= t_catch + 3 / fps + 1e-9 else [obj(truth(t) + twin)])
+        tracks = m.update(objs, t)
+        if t > t_catch + 4 / fps:
+            reported.append({tr.track_id for tr in tracks if tr.reported})
+    assert len({tid for ids in reported for tid in ids}) == 1  # the ball's own track only
