@@ -64,6 +64,7 @@ class TrackEstimate:
     n_particles: int = 0
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
     flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
+    settled: bool = False  # it has moved since it was first past tentative, or lived a while: its ball is no ghost (tracks/manager.py)
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +83,11 @@ class TrackedBalls:
     track_ids: np.ndarray  # B, int
     targets: tuple[str, ...]  # B target names
     confirmed: np.ndarray  # B bool: seen at the latest update (else coasting)
+    settled: np.ndarray | None = None  # B bool: the ball may keep the background from learning its disc (None: every ball)
+
+    def __post_init__(self):
+        if self.settled is None:
+            object.__setattr__(self, "settled", np.ones(len(self.centres), dtype=bool))
 
     @classmethod
     def from_tracks(cls, tracks: Sequence[TrackEstimate], radius: Mapping[str, float]) -> TrackedBalls:
@@ -93,6 +99,7 @@ class TrackedBalls:
             np.array([t.track_id for t in live], dtype=int),
             tuple(t.target for t in live),
             np.array([t.state == "confirmed" for t in live], dtype=bool),
+            np.array([t.settled for t in live], dtype=bool),
         )
 
     def __len__(self) -> int:
@@ -106,6 +113,7 @@ class TrackedBalls:
             self.track_ids[keep],
             tuple(np.array(self.targets, dtype=object)[keep]),
             self.confirmed[keep],
+            self.settled[keep],
         )
 
     def confirmed_only(self) -> TrackedBalls:

@@ -30,8 +30,6 @@ from .kernels import absorb_still_patches, background_step, frame_gain
 
 SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
-TRAVEL = 2.0  # a track keeps its disc out of the background once it has gone this many ball radii from where it started ...
-SETTLED_FRAMES = 8  # ... or once it has lived this many frames (a ghost under it is learnt by then: ABSORB_FRAMES; 10 lost a pendulum ball at a turning point)
 ABSORB_FRAMES = 5  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
@@ -57,9 +55,6 @@ class BackgroundModel:
         self._behind_hsv: np.ndarray | None = None  # its HSV, made when first asked
         self._previous: np.ndarray | None = None  # uint8, the last frame at that size (after its gain)
         self._calm: np.ndarray | None = None  # uint8, frames in a row each cell has not changed (at most 255)
-        self._start: dict[int, np.ndarray] = {}  # where each track was first seen
-        self._age: dict[int, int] = {}  # frames each track has been seen
-        self._travelled: set[int] = set()  # the tracks that have moved from there, or lived SETTLED_FRAMES
 
     def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
         """This frame's foreground at the image's size (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""
@@ -114,25 +109,12 @@ class BackgroundModel:
         absorb_still_patches(moving, self._calm, learn, self._background, self._previous, ABSORB_FRAMES)
 
     def _moved(self, balls: TrackedBalls | None) -> TrackedBalls | None:
-        """The tracked balls that have travelled since their track began, or lived SETTLED_FRAMES frames: only they
-        keep the background from learning their discs. A new track that has not moved may hold a ghost (a ball
+        """The tracked balls that keep the background from learning their discs: the settled ones (tracks/manager.py:
+        moved since their track began, or lived a while). A new track that has not moved may hold a ghost (a ball
         that sat there when the background started, then left): protected, it would stay foreground for ever."""
         if balls is None or not len(balls):
-            self._start.clear()
-            self._age.clear()
-            self._travelled.clear()
             return balls
-        ids = balls.track_ids.tolist()
-        for tid, centre, radius in zip(ids, balls.centres, balls.radii):
-            start = self._start.setdefault(tid, centre)
-            self._age[tid] = self._age.get(tid, 0) + 1
-            if tid not in self._travelled and (np.linalg.norm(centre - start) > TRAVEL * radius or self._age[tid] >= SETTLED_FRAMES):
-                self._travelled.add(tid)
-        live = set(ids)
-        self._start = {k: v for k, v in self._start.items() if k in live}
-        self._age = {k: v for k, v in self._age.items() if k in live}
-        self._travelled &= live
-        return balls.where(np.array([tid in self._travelled for tid in ids], bool))
+        return balls.where(balls.settled)
 
     def _gain(self, image: np.ndarray) -> np.ndarray:
         """Per channel, what this frame must be multiplied by to match the background where the room did not

@@ -59,8 +59,8 @@ class Tracker:
         self.explain_settings = {t.name: ExplainSettings.of(s, t.radius) for t in config.targets}
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
-        self.identities = TrackManager(config.tracks, rig)
         self.radius = {t.name: t.radius for t in config.targets}
+        self.identities = TrackManager(config.tracks, rig, self.radius)
         # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
         # reads that grid's image too (and keeps half its size, motion.py).
         smallest = min(t.radius for t in config.targets)

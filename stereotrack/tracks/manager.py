@@ -25,7 +25,7 @@ shrink it).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,6 +41,9 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
+TRAVEL = 2.0  # a track is settled (its ball keeps its disc out of the background) once it has gone this many ball radii from where it was first shown ...
+HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
+SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
 
@@ -66,6 +69,12 @@ class _Track:
     in_flight: bool = False  # gravity applies to its prediction
     parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
     prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
+    launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
+    seen_at: np.ndarray | None = None  # its position after its latest hit
+    caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
+    first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
+    shown: int = 0  # frames it has been past tentative
+    settled: bool = False  # see ``TrackManager._settled``
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -108,12 +117,15 @@ class TrackManager:
     ...     tracks = manager.update(objects, frame.time)
     """
 
-    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None):
-        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view."""
+    def __init__(self, settings: TrackSettings | None = None, rig: Rig | None = None, radius: Mapping[str, float] | None = None):
+        """``rig``: when given, a coasting track is reported only while its prediction is in every camera's view.
+        ``radius``: each target's ball radius (metres), for ``TrackEstimate.settled``; without it a track settles by age only."""
         self.settings = settings or TrackSettings()
         self.rig = rig
+        self.radius = dict(radius or {})
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
+        self._up = None if up is None else np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
         self._next_id = 1
         self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -130,7 +142,7 @@ class TrackManager:
         """
         states = [self._predict(tr, time) for tr in self._tracks]
         seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
-        return tuple(self._estimate(tr, x, P, v) for tr, (x, P), v in zip(self._tracks, states, seen))
+        return tuple(self._estimate(tr, x, P, v, self._settled(tr, x[:3])) for tr, (x, P), v in zip(self._tracks, states, seen))
 
     def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
         """Take this frame's objects (seen at ``time`` seconds); return every live track after the update.
@@ -145,6 +157,11 @@ class TrackManager:
             tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
             tr.hit = False
             tr.contested = False
+            if tr.confirmed:  # the frames it was past tentative, counted as ``predicted`` showed them
+                tr.settled = self._settled(tr, tr.x[:3])
+                tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
+                tr.shown += 1
+        self._forget_catches_of_seen_balls()
         by_target: dict[str, list[int]] = {}
         for i, obj in enumerate(objects):
             by_target.setdefault(obj.target, []).append(i)
@@ -159,8 +176,10 @@ class TrackManager:
                 cols = np.flatnonzero(free)
                 if not tracks or not len(cols):
                     continue
-                for ti, cj in self._assign(tracks, z[cols], R[cols]):
+                for ti, cj, caught in self._assign(tracks, z[cols], R[cols], time):
                     j = cols[cj]
+                    if caught:
+                        self._catch(tracks[ti], time)
                     self._correct(tracks[ti], z[j], R[j], objs[j], time)
                     free[j] = False
             if s.max_speed > 0:
@@ -180,7 +199,7 @@ class TrackManager:
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
-        return tuple(self._estimate(t, t.x, t.P, v) for t, v in zip(self._tracks, seen))
+        return tuple(self._estimate(t, t.x, t.P, v, t.settled) for t, v in zip(self._tracks, seen))
 
     def reset(self) -> None:
         """Forget every track (ids keep counting up: they stay unique within the run)."""
@@ -224,15 +243,60 @@ class TrackManager:
             R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
         return R
 
-    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray) -> list[tuple[int, int]]:
-        """Gated global assignment: pairs (track index, object index) with squared Mahalanobis distance <= gate."""
+    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float) -> list[tuple[int, int, bool]]:
+        """Gated global assignment: (track index, object index, caught) with squared Mahalanobis distance <= gate.
+        A flying ball missed since its latest hit may have been caught: it is then near where it was last seen, not
+        down its parabola. Each such track is also tried there (``_caught``); ``caught`` says that hypothesis won."""
         pos = np.array([t.x[:3] for t in tracks])  # T x 3
         Pp = np.array([t.P[:3, :3] for t in tracks])  # T x 3 x 3
+        z, R = np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float)
         # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
-        d2, cost = association_costs(pos, Pp, np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
+        d2, cost = association_costs(pos, Pp, z, R)
         gated = d2 <= self.settings.gate
+        caught = np.zeros(d2.shape, bool)
+        held = [(i, self._caught(t, time)) for i, t in enumerate(tracks)]
+        held = [(i, h) for i, h in held if h is not None]
+        if held:
+            rows = np.array([i for i, _ in held])
+            d2h, costh = association_costs(np.array([h[0] for _, h in held]), np.array([h[1] for _, h in held]), z, R)
+            better = (d2h <= self.settings.gate) & (~gated[rows] | (costh < cost[rows]))
+            cost[rows] = np.where(better, costh, cost[rows])
+            gated[rows] |= better
+            caught[rows] = better
         rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
-        return [(int(r), int(c)) for r, c in zip(rows, cols) if gated[r, c]]
+        return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
+
+    def _caught(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where a flying ball missed since its latest hit would be had a hand caught it then: (position, covariance)
+        around that hit, growing as a hand may carry it (HAND_SPEED); None for a ball not flying or not missed."""
+        if tr.caught_at is None or not tr.in_flight or tr.streak > 0:  # streak: 0 once a frame was missed (``update``)
+            return None
+        dt = time - tr.last_hit
+        position, P = tr.caught_at
+        return position, P + np.eye(3) * (HAND_SPEED * dt) ** 2
+
+    def _forget_catches_of_seen_balls(self) -> None:
+        """A lost track whose catch point is within a ball's width of where a track of its colour was seen last frame
+        was that ball seen twice (a duplicate track), not a ball caught out of sight: it keeps no catch hypothesis."""
+        seen = [t for t in self._tracks if t.streak > 0 and t.seen_at is not None]
+        for tr in self._tracks:
+            if tr.caught_at is None or tr.streak > 0:
+                continue
+            near = max(self.settings.min_separation, 2.0 * self.radius.get(tr.target, 0.0))
+            if any(t.target == tr.target and np.linalg.norm(t.seen_at - tr.caught_at[0]) < near for t in seen):
+                tr.caught_at = None
+
+    def _catch(self, tr: _Track, time: float) -> None:
+        """The ball was caught at its latest hit: it stops flying and starts again from there, at rest in a hand."""
+        position, P = self._caught(tr, time)
+        tr.x = np.r_[position, 0.0, 0.0, 0.0]
+        tr.P = np.zeros((6, 6))
+        tr.P[:3, :3] = P
+        tr.P[3:, 3:] = np.eye(3) * HAND_SPEED**2
+        tr.in_flight = False
+        tr.parabola = None
+        tr.history = []
+        tr.caught_at = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
@@ -270,6 +334,8 @@ class TrackManager:
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
+        tr.seen_at = tr.x[:3].copy()
+        tr.caught_at = (tr.seen_at, tr.P[:3, :3].copy()) if tr.in_flight else None
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
             tr.confirmed = True
         # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third
@@ -289,7 +355,10 @@ class TrackManager:
         times = np.array([t for t, _ in tr.history])
         positions = np.array([p for _, p in tr.history]).reshape(-1, 3)
         if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
-            tr.in_flight = in_free_flight(times, positions, self.gravity)
+            flying = in_free_flight(times, positions, self.gravity)
+            if flying and not tr.in_flight:
+                tr.launch = float(np.min(positions @ self._up))
+            tr.in_flight = flying
         enough = len(times) >= 3 and times[-1] - times[0] > _EPS_TIME
         tr.parabola = fit_parabola(times, positions, self.gravity) if tr.in_flight and enough else None
 
@@ -301,6 +370,19 @@ class TrackManager:
         tr.confirmed = self.settings.confirm_time <= _EPS_TIME
         self._next_id += 1
         return tr
+
+    def _settled(self, tr: _Track, position: np.ndarray) -> bool:
+        """Has this track, at ``position`` this frame, gone TRAVEL ball radii from where it was first past tentative,
+        or been past tentative SETTLED_FRAMES frames (this one included)? Then its ball may keep the background from
+        learning its disc (evidence/motion.py). A new track that has not moved may sit on a ghost (a ball that was
+        there when the background started, then left): kept out of the update, the ghost would last for ever."""
+        if tr.settled:
+            return True
+        if not tr.confirmed:
+            return False
+        start = position if tr.first_shown is None else tr.first_shown
+        radius = self.radius.get(tr.target, np.inf)
+        return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
 
     def _expired(self, tr: _Track, time: float) -> bool:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
@@ -316,12 +398,15 @@ class TrackManager:
             inside &= ok & cam.in_image(uv)
         return inside
 
-    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool) -> TrackEstimate:
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
         coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view
         reported = tr.confirmed and (tr.hit or coasting_ok)
+        if not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch:
+            # A flying ball lost on its way down, past the height it was thrown from, was most likely caught there.
+            x = np.r_[tr.caught_at[0], 0.0, 0.0, 0.0]
         return TrackEstimate(
             track_id=tr.track_id,
             target=tr.target,
@@ -332,4 +417,5 @@ class TrackManager:
             n_particles=tr.n_particles,
             reported=bool(reported),
             flight=tr.parabola,
+            settled=settled,
         )

@@ -9,6 +9,7 @@ from scene_helpers import RADIUS, default_rig
 
 from stereotrack.evidence.motion import BackgroundModel
 from stereotrack.results import TrackedBalls
+from stereotrack.tracks.manager import SETTLED_FRAMES
 
 PINK = (170, 50, 230)  # BGR
 
@@ -58,11 +59,13 @@ def test_where_a_ball_was_in_the_first_frame_leaves_no_ghost_a_track_could_keep(
     a ghost. A false track that forms there keeps the place out of the update; the ghost must fade first."""
     cam = default_rig().cameras[0]
     first, later = np.array([0.3, 1.5, 0.0]), np.array([0.55, 1.5, 0.1])  # both in front of the wall
-    ghost = TrackedBalls(first[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]))
     u, v = cam.project(first[None])[0][0].astype(int)
     bg = BackgroundModel(cam, rate=0.05, threshold=30)
     bg.foreground(frame(cam, first))
-    for i in range(1, 40):  # the ball moved on at once; a track holds its first place from the 5th frame on
+    for i in range(1, 40):  # the ball moved on at once; a track holds its first place from the 5th frame on (settled as the manager says)
+        ghost = TrackedBalls(
+            first[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]), np.array([i - 4 >= SETTLED_FRAMES])
+        )
         fg = bg.foreground(frame(cam, later), ghost if i >= 5 else None)
     assert fg[v - 2 : v + 3, u - 2 : u + 3].sum() == 0
 
@@ -72,12 +75,12 @@ def test_the_ghost_a_ball_leaves_where_it_started_fades_at_once_even_under_a_tra
     background (a ghost). A track that never moved may hold the ghost: it must not keep it foreground."""
     cam = default_rig().cameras[0]
     start = np.array([-0.3, 1.5, 0.0])
-    ghost = TrackedBalls(start[None], np.array([RADIUS]), np.array([7]), ("pink",), np.array([True]))
     uv = cam.project(start[None])[0][0].astype(int)
     bg = BackgroundModel(cam, rate=0.05, threshold=30)
     bg.foreground(frame(cam, start, wall=False))
     seen = []
-    for k in range(1, 15):  # the ball flies off to the right, a track sits on the ghost
+    for k in range(1, 15):  # the ball flies off to the right, a track sits on the ghost (settled as the manager says)
+        ghost = TrackedBalls(start[None], np.array([RADIUS]), np.array([7]), ("pink",), np.array([True]), np.array([k >= SETTLED_FRAMES]))
         seen.append(bool(bg.foreground(frame(cam, start + np.array([0.05 * k, 0.0, 0.0]), wall=False), ghost)[uv[1], uv[0]]))
     assert seen[0] and not any(seen[8:])  # a ghost at first, gone within ABSORB_FRAMES (5) and a little
 

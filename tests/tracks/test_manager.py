@@ -316,3 +316,73 @@ def test_clutter_far_apart_makes_no_fast_track():
     for i in range(30):
         tracks = m.update([obj(rng.uniform(-3, 3, 3) + [0.0, 8.0, 0.0])], i / 60)
         assert not any(tr.reported for tr in tracks)
+
+
+def test_a_track_settles_once_it_has_moved_two_radii_or_been_shown_a_while():
+    """``settled`` (a ball that may keep the background from learning its disc, evidence/motion.py): a ball that flies
+    off settles as soon as it has gone two radii from where its track was first past tentative; one that stays put
+    (maybe a ghost) only after SETTLED_FRAMES frames; ``predicted`` tells the same as the next ``update``."""
+    from stereotrack.tracks.manager import SETTLED_FRAMES
+
+    fps, radius = 30.0, 0.03
+    for speed, settles in ((1.5, (1, 2)), (0.0, (SETTLED_FRAMES - 1,))):  # 5 cm a frame: past 6 cm in 2 or 3 frames
+        m = TrackManager(TrackSettings(), radius={"red": radius})
+        shown = []
+        for i in range(40):
+            t = i / fps
+            before = [e.settled for e in m.predicted(t) if e.state != "tentative"]
+            after = [e.settled for e in m.update([obj([speed * t, 0.0, 2.0])], t) if e.state != "tentative"]
+            if before:
+                shown.append(before[0])
+                assert after[0] == before[0]
+        assert shown.index(True) in settles and all(shown[shown.index(True) :])
+
+
+def test_a_ball_caught_out_of_sight_is_looked_for_and_reported_where_it_was_caught():
+    """A ball thrown up from a hand and caught back at that height, then hidden by the fingers for 0.2 s while the
+    hand carries it slowly: its track neither reports it falling on down its parabola (coasting) nor pulls its
+    first sight in the hand towards that parabola. One id throughout."""
+    fps, t_catch = 30.0, 0.5
+    p0, v0, hand = np.array([0.0, 1.5, 0.0]), np.array([0.4, 0.0, 2.45]), np.array([0.3, 0.0, -0.2])
+
+    def truth(t):
+        if t <= t_catch:
+            return p0 + v0 * t + 0.5 * np.array([0.0, 0.0, -9.81]) * t * t
+        return truth(t_catch) + hand * (t - t_catch)
+
+    rng = np.random.default_rng(6)
+    m = TrackManager(TrackSettings(up=(0.0, 0.0, 1.0)))
+    coasting, back = [], []
+    for i in range(int(0.95 * fps)):
+        t = i / fps
+        hidden = t_catch < t <= t_catch + 0.2 + 1e-9 or i == round((t_catch + 0.3) * fps)  # seen once in between
+        tracks = m.update([] if hidden else [obj(truth(t) + rng.normal(0, 0.003, 3), sigma=0.003)], t)
+        assert [tr.track_id for tr in tracks] == [1]
+        if t > t_catch + 0.2:
+            assert tracks[0].flight is None  # held, not flying: no parabola (no landing to predict)
+        if hidden and tracks[0].reported:
+            (coasting if t < t_catch + 0.25 else back).append(np.linalg.norm(tracks[0].position - truth(t)))
+    assert len(coasting) == 2 and max(coasting) < 0.05  # down the parabola: 8 and 17 cm off
+    assert len(back) == 1 and max(back) < 0.05  # at the parabola's speed: 11 cm off
+
+
+def test_a_duplicate_track_lost_where_its_ball_is_still_seen_is_not_caught_back_to_life():
+    """One flying ball seen twice (two objects 5.5 cm apart in depth: two tracks). At the catch only the true object is
+    left for 0.1 s, then the second one comes back 4 cm off. The duplicate was lost where another track still saw
+    the ball: it was that ball seen twice, not a ball caught out of sight, so it is not matched back there."""
+    fps, t_catch = 30.0, 0.5
+    p0, v0 = np.array([0.0, 1.5, 0.0]), np.array([0.4, 0.0, 2.45])
+
+    def truth(t):
+        return p0 + v0 * min(t, t_catch) + 0.5 * np.array([0.0, 0.0, -9.81]) * min(t, t_catch) ** 2
+
+    m = TrackManager(TrackSettings(up=(0.0, 0.0, 1.0), accel_noise=2.0), radius={"red": 0.03})  # far down its arc: out of its gate
+    reported = []
+    for i in range(int(0.9 * fps)):
+        t = i / fps
+        twin = np.array([0.0, 0.055 if t <= t_catch else 0.04, 0.0])
+        objs = [obj(truth(t))] + ([] if t_catch < t <= t_catch + 3 / fps + 1e-9 else [obj(truth(t) + twin)])
+        tracks = m.update(objs, t)
+        if t > t_catch + 4 / fps:
+            reported.append({tr.track_id for tr in tracks if tr.reported})
+    assert len({tid for ids in reported for tid in ids}) == 1  # the ball's own track only
