@@ -345,17 +345,21 @@ def fast_ball(seed: int, rng) -> SceneSpec:
             traj = Flight(tuple(start), tuple(v), t0)
             pts = traj.positions(sc.times)
             seen = sc.in_view_each(pts, radius)
-            if seen.sum() >= 3 and sc.clear(pts, radius):
-                last = sc.times[np.flatnonzero(seen)[-1]]
-                balls.append(
-                    BallSpec(traj, colour=tuple(int(round(c)) for c in colour), radius=radius, appear=t0, disappear=float(last + 0.25))
-                )
-                sc.paths.append(np.where((sc.times >= t0)[:, None], pts, np.nan))
-                sc.radii.append(radius)
-                top_speed = max(top_speed, speed)
-                nearest = min(nearest, float(np.nanmin(pts[seen, 1])))
-                t0 = float(last + rng.uniform(0.05, 0.4))
-                break
+            if seen.sum() < 3 or not sc.clear(pts, radius):
+                continue
+            last = sc.times[np.flatnonzero(seen)[-1]]
+            # A ball that reaches the floor while it is still present would fly on under it, unseen but in the truth.
+            if np.any((sc.times >= t0) & (sc.times <= last + 0.25) & (pts[:, 2] < sc.floor_z + radius)):
+                continue
+            balls.append(
+                BallSpec(traj, colour=tuple(int(round(c)) for c in colour), radius=radius, appear=t0, disappear=float(last + 0.25))
+            )
+            sc.paths.append(np.where((sc.times >= t0)[:, None], pts, np.nan))
+            sc.radii.append(radius)
+            top_speed = max(top_speed, speed)
+            nearest = min(nearest, float(np.nanmin(pts[seen, 1])))
+            t0 = float(last + rng.uniform(0.05, 0.4))
+            break
         else:
             break
     # Enough sub-frames that the streak is smooth: one per pixel and a half of travel during the exposure.
