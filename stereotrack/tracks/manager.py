@@ -8,7 +8,7 @@ counts), this frame's objects are assigned to them globally (Hungarian,
 ``scipy.optimize.linear_sum_assignment``) inside a Mahalanobis gate, and the
 lifecycle moves on:
 
-    tentative --(seen for confirm_time s)--> confirmed <--> coasting --(unseen for delete_time s)--> deleted
+    tentative --(seen for confirm_time s, or 3 frames in a row at confirm_speed)--> confirmed <--> coasting --(unseen for delete_time s)--> deleted
     tentative --(unseen for tentative_time s)--> deleted
 
 All limits are in seconds, so a run behaves the same at 15, 30 or 60 fps.
@@ -37,6 +37,7 @@ from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola
 from .kernels import association_costs, kalman_correct, kalman_predict
 
+FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
@@ -55,6 +56,8 @@ class _Track:
     time: float  # time of x and P, seconds
     born: float  # time of the first hit
     last_hit: float  # time of the latest hit
+    streak: int = 1  # hits in a row, this one included
+    hits: int = 1  # hits since it was born
     confirmed: bool = False
     hit: bool = True  # matched in the latest update
     contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
@@ -139,6 +142,7 @@ class TrackManager:
         for tr in self._tracks:
             tr.x, tr.P = self._predict(tr, time)
             tr.time = time
+            tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
             tr.hit = False
             tr.contested = False
         by_target: dict[str, list[int]] = {}
@@ -159,6 +163,8 @@ class TrackManager:
                     j = cols[cj]
                     self._correct(tracks[ti], z[j], R[j], objs[j], time)
                     free[j] = False
+            if s.max_speed > 0:
+                self._two_point(target, z, R, objs, free, time)
             # A missed track with an unmatched object of its colour nearby was lost by its motion model
             # (an abrupt catch): its prediction is not worth reporting.
             spare = z[free]
@@ -230,11 +236,47 @@ class TrackManager:
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
+        self._hit(tr, z, R, obj, time)
+
+    def _two_point(self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, time: float) -> None:
+        """Two-point start of fast balls: a track seen once whose second object fell outside its gate (a ball thrown at
+        20 m/s moves a third of a metre between frames at 60 fps; a velocity prior of a few m/s gates a few centimetres)
+        takes the nearest unmatched object within ``max_speed`` of it, and its velocity from the two. A static ball's
+        noisy first objects still meet in the ordinary gate, where the prior keeps its velocity small."""
+        young = [t for t in self._tracks if t.target == target and not t.hit and t.hits == 1]
+        cols = np.flatnonzero(free)
+        if not young or not len(cols):
+            return
+        first = np.array([t.x[:3] for t in young])  # a track seen once has no velocity: its prediction is where it was seen
+        dt = np.array([max(time - t.last_hit, _EPS_TIME) for t in young])
+        dist = np.linalg.norm(first[:, None] - z[cols][None], axis=2)
+        near = dist <= self.settings.max_speed * dt[:, None]
+        rows, cc = linear_sum_assignment(np.where(near, dist, _INFEASIBLE))
+        for r, c in zip(rows, cc):
+            if not near[r, c]:
+                continue
+            tr, j = young[r], cols[c]
+            P = np.zeros((6, 6))  # both positions measured with about this object's noise
+            P[:3, :3], P[:3, 3:], P[3:, :3], P[3:, 3:] = R[j], R[j] / dt[r], R[j] / dt[r], 2.0 * R[j] / dt[r] ** 2
+            tr.x, tr.P = np.r_[z[j], (z[j] - first[r]) / dt[r]], P
+            self._hit(tr, z[j], R[j], objs[j], time)
+            free[j] = False
+
+    def _hit(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+        """A track met an object: its lifecycle moves on."""
+        tr.hits += 1
+        tr.streak += 1
         tr.hit = True
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
+            tr.confirmed = True
+        # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third
+        # fell in a gate a few centimetres wide around where it predicted. Clutter does not fly; a thrown ball crosses
+        # the view in a few frames, too few to wait confirm_time for.
+        fast = self.settings.confirm_speed > 0 and np.linalg.norm(tr.x[3:]) >= self.settings.confirm_speed
+        if not tr.confirmed and tr.streak >= FAST_CONFIRM_HITS and fast:
             tr.confirmed = True
 
     def _follow_flight(self, tr: _Track, z: np.ndarray, R: np.ndarray, time: float) -> None:

@@ -284,3 +284,35 @@ def test_a_briefly_missed_ball_is_still_reported_then_not(fps):
     n = sum(reported)
     assert reported == [True] * n + [False] * (len(reported) - n)  # reported first, then not
     assert n == int(0.07 * fps + 1e-9)  # as long as the limit in seconds allows, at any frame rate
+
+
+@pytest.mark.parametrize("max_speed", [40.0, 0.0])
+def test_a_thrown_ball_gets_one_track_confirmed_on_its_third_frame(max_speed):
+    """A ball thrown at 25 m/s moves 0.42 m between frames at 60 fps, far outside a new track's gate (a velocity prior of
+    3 m/s): the two-point start takes its second object within max_speed, and three hits in a row at that speed confirm
+    it before confirm_time (a ball crossing the view in 15 frames would lose 6 of them). Without it, every frame starts
+    a new track that is never confirmed."""
+    m = TrackManager(TrackSettings(max_speed=max_speed))
+    velocity = np.array([-25.0, 1.0, 2.0])
+    reported, ids = [], set()
+    for i in range(15):
+        t = i / 60
+        tracks = m.update([obj(np.array([4.0, 10.0, 0.5]) + velocity * t)], t)
+        shown = [tr for tr in tracks if tr.reported]
+        reported.append(bool(shown))
+        ids.update(tr.track_id for tr in shown)
+        if shown:
+            assert np.linalg.norm(shown[0].velocity - velocity) < 1.0
+    if max_speed:
+        assert reported == [False, False] + [True] * 13 and ids == {1}
+    else:
+        assert not any(reported)
+
+
+def test_clutter_far_apart_makes_no_fast_track():
+    """Objects that appear once each, metres apart, are not a ball thrown faster than max_speed: no track is confirmed."""
+    m = TrackManager(TrackSettings())
+    rng = np.random.default_rng(3)
+    for i in range(30):
+        tracks = m.update([obj(rng.uniform(-3, 3, 3) + [0.0, 8.0, 0.0])], i / 60)
+        assert not any(tr.reported for tr in tracks)
