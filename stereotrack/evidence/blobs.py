@@ -21,13 +21,14 @@ class Blobs:
 
     centres: np.ndarray  # M x 2 pixel centroids (x, y)
     areas: np.ndarray  # M pixel counts
-    radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side)
+    radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side; a streak's semi-minor axis)
     labels: np.ndarray | None = None  # H x W int32 component label image (components only)
     label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
     label_scale: int = 1  # pixel (u, v) has label labels[v // label_scale, u // label_scale]
     boxes: np.ndarray | None = None  # M x 4 bounding boxes (x0, y0, x1, y1), end exclusive, in label cells (components only)
     sizes: np.ndarray | None = None  # M x 2 width and height of the set pixels, full-resolution pixels (components only)
     axes: np.ndarray | None = None  # M x 2 semi-major and semi-minor axes of the ellipse with the blob's second moments, pixels
+    major: np.ndarray | None = None  # M x 2 unit vector (x, y) along that ellipse's major axis (components only)
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -45,8 +46,12 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     label_blob[1:][keep] = np.arange(keep.sum())
     boxes = boxes[keep]
     areas, centres, size, second = mask_moments(mask, boxes, scale)  # each blob measured at full resolution
+    axes = _axes(second)
     radii = 0.5 * size.max(axis=1) if len(size) else np.zeros(0)
-    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, _axes(second))
+    inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
+    radii = np.where(streaks(areas, axes) & inside, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
+    major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
+    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2))
 
 
 def _local_maxima(hist: np.ndarray, min_count: float, min_gap: int = 5) -> np.ndarray:
@@ -111,6 +116,20 @@ def _axes(second: np.ndarray) -> np.ndarray:
     mean = 0.5 * (second[:, 0] + second[:, 1])
     spread = np.sqrt(0.25 * (second[:, 0] - second[:, 1]) ** 2 + second[:, 2] ** 2)
     return 2.0 * np.sqrt(np.maximum(np.column_stack([mean + spread, mean - spread]), 0.0))
+
+
+STREAK_ELONGATION = 1.5  # a blob this much longer than wide, ...
+STREAK_FILL = 0.8  # ... that fills its moments' ellipse this much, is a ball swept along a line (a capsule fills it 0.9-1.1)
+
+
+def streaks(areas: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """Per blob: a ball smeared into a streak by its motion during the exposure (a filled capsule), whose width, not
+    its length, is the ball's. A crescent (a ball partly in range) fills its ellipse about half: not a streak. A ball
+    cut by the image's edge is one too (a half disc fills its ellipse): the caller keeps those out."""
+    if not len(areas):
+        return np.zeros(0, bool)
+    b = np.maximum(axes[:, 1], 0.5)
+    return (axes[:, 0] >= STREAK_ELONGATION * b) & (areas >= STREAK_FILL * np.pi * axes[:, 0] * b)
 
 
 # A blob must fill this much of its moments' ellipse: a disc, a cut disc or a streak do, a ring or a scatter do not.

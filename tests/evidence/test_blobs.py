@@ -42,3 +42,17 @@ def test_walls_rings_and_specks_fail():
     assert not blob_of(lambda m: cv2.rectangle(m, (100, 50), (500, 450), 1, -1))  # a wall: wider than a ball at 0.2 m
     assert not blob_of(lambda m: cv2.circle(m, (300, 200), 30, 1, 3))  # a ring (a hoop, a plate's rim): hollow
     assert not blob_of(lambda m: cv2.rectangle(m, (300, 200), (302, 202), 1, -1))  # a speck: narrower than a ball at 5 m
+
+
+def test_a_streak_is_as_wide_as_its_ball_and_a_ball_cut_by_the_edge_keeps_its_size():
+    """The apparent radius that sets a blob's depth range and its ray crossings: a streak's is its half width (half its
+    length would put a fast ball at half its depth); a ball cut in half by the image's edge keeps half its longer side."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.line(m, (200, 200), (320, 240), 1, 16)  # a ball of radius 8 px smeared over 126 px
+    cv2.circle(m, (0, 400), 10, 1, -1)  # half a ball of radius 10 px at the left edge
+    cv2.circle(m, (500, 100), 9, 1, -1)  # a whole ball
+    b = find_blobs(m)
+    order = np.argsort(b.centres[:, 0])
+    edge, streak, ball = b.radii[order]
+    assert 7.5 < streak < 10.0 and 9.5 <= edge <= 11.0 and 8.5 <= ball <= 10.0
+    assert abs(abs(b.major[order[1]] @ np.array([120.0, 40.0]) / np.hypot(120, 40)) - 1) < 0.01  # along the streak
