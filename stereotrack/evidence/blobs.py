@@ -21,7 +21,7 @@ class Blobs:
 
     centres: np.ndarray  # M x 2 pixel centroids (x, y)
     areas: np.ndarray  # M pixel counts
-    radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side; a streak's semi-minor axis)
+    radii: np.ndarray  # M apparent radii in pixels (half the larger bounding-box side)
     labels: np.ndarray | None = None  # H x W int32 component label image (components only)
     label_blob: np.ndarray | None = None  # component label -> blob index, -1 for background and specks
     label_scale: int = 1  # pixel (u, v) has label labels[v // label_scale, u // label_scale]
@@ -29,6 +29,13 @@ class Blobs:
     sizes: np.ndarray | None = None  # M x 2 width and height of the set pixels, full-resolution pixels (components only)
     axes: np.ndarray | None = None  # M x 2 semi-major and semi-minor axes of the ellipse with the blob's second moments, pixels
     major: np.ndarray | None = None  # M x 2 unit vector (x, y) along that ellipse's major axis (components only)
+    widths: np.ndarray | None = None  # M apparent radii of the ball a blob is if it is one: a streak's half width, else ``radii``
+
+    def ball_radii(self) -> np.ndarray:
+        """Apparent radius of the one ball each blob would be: a streak's half width (half its length would put a fast
+        ball at half its depth), else ``radii``. Two balls of one colour overlapping look like a streak too: callers use
+        this only for blobs no tracked ball holds."""
+        return self.widths if self.widths is not None else self.radii
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -49,9 +56,11 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     axes = _axes(second)
     radii = 0.5 * size.max(axis=1) if len(size) else np.zeros(0)
     inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
-    radii = np.where(streaks(areas, axes) & inside, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
-    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2))
+    swept = streaks(areas, axes) & inside
+    swept[swept] = ~_waisted(mask, centres[swept], major[swept], axes[swept, 1])
+    widths = np.where(swept, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
+    return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2), widths)
 
 
 def _local_maxima(hist: np.ndarray, min_count: float, min_gap: int = 5) -> np.ndarray:
@@ -99,6 +108,17 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
             runs.append((right[0] if len(right) else len(line)) - (left[-1] + 1 if len(left) else 0))
         radii[i] = 0.5 * max(runs)
     return Blobs(cand.astype(float), count.astype(float), radii)
+
+
+def _waisted(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, semi_minor: np.ndarray) -> np.ndarray:
+    """Per blob: does it narrow at its centroid, as two balls side by side do (a streak is as wide there as anywhere)?
+    Reads the mask across the major axis through the centroid, within 0.7 semi-minor axes of it: under 80 % set."""
+    if not len(centres):
+        return np.zeros(0, bool)
+    steps = np.linspace(-0.7, 0.7, 9)[None, :] * semi_minor[:, None]  # M x 9 offsets across the blob, pixels
+    x = np.rint(centres[:, :1] - major[:, 1:2] * steps).astype(int).clip(0, mask.shape[1] - 1)
+    y = np.rint(centres[:, 1:2] + major[:, :1] * steps).astype(int).clip(0, mask.shape[0] - 1)
+    return (mask[y, x] > 0).mean(axis=1) < 0.8
 
 
 def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6) -> Blobs:

@@ -27,6 +27,7 @@ class Seeds:
     radii: np.ndarray  # M apparent radii, pixels (half the blob's larger side)
     origins: np.ndarray  # M x 3
     directions: np.ndarray  # M x 3 unit
+    widths: np.ndarray | None = None  # M apparent radii of the one ball each would be (Blobs.ball_radii); None: radii
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -55,7 +56,9 @@ class CameraEvidence:
 
     def proposal_seeds(self) -> Seeds:
         """The seeds, or every blob of the mask when none were chosen."""
-        return self.seeds if self.seeds is not None else Seeds(self.blobs.centres, self.blobs.radii, self.origins, self.directions)
+        if self.seeds is not None:
+            return self.seeds
+        return Seeds(self.blobs.centres, self.blobs.radii, self.origins, self.directions, self.blobs.ball_radii())
 
     @property
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -133,6 +136,7 @@ def _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_are
     (a ball moving in front of a wall of its colour is a blob of its own only in the moving part)."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
+    widths = [blobs.ball_radii()[keep]]
     if moving is not None:
         mb = find_blobs(moving, blob_method, min_blob_area)
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
@@ -144,6 +148,9 @@ def _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_are
             mo, md = camera.rays(mb.centres[new])
             centres.append(mb.centres[new])
             radii.append(mb.radii[new])
+            widths.append(mb.ball_radii()[new])
             o.append(mo)
             d.append(md)
-    return Seeds(np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3))
+    return Seeds(
+        np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3), np.concatenate(widths)
+    )

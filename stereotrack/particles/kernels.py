@@ -252,18 +252,27 @@ def _squares(integral, u, v, ax, ay, bx, by, half, n_steps, scale):
 def _capsule(integral, u, v, r, length, ex, ey, core, scale):
     """How much a ball of apparent radius ``r`` swept ``length`` pixels either way along the unit vector (ex, ey) during
     the exposure (a capsule centred on (u, v), the ball's mean position) is what this map shows: ``core`` (the share set
-    inside the disc's core square, which the caller has) x the sides of the capsule, across it and inside its round
-    ends, full x the corners beyond its ends empty x the ring around it, on its second-emptiest side of four (across it on
+    inside the disc's core square, which the caller has) x the sides of the capsule, across it (at its middle and
+    halfway to its ends: no waist) and inside its round ends, full x the corners beyond its ends empty x the ring around it, on its second-emptiest side of four (across it on
     either side, beyond either end), empty. The disc's test (``_centre_surround``) is this with no length."""
     nx, ny = -ey, ex  # across the streak
     half = max(0.12 * r, 0.5)
     d, e = 0.85 * r, length + 0.5 * r  # the ends' squares well inside the round ends: the length comes from the area, to a pixel or two
-    sides = 0.25 * (
-        _squares(integral, u, v, d * nx, d * ny, d * nx, d * ny, half, 1, scale)
-        + _squares(integral, u, v, -d * nx, -d * ny, -d * nx, -d * ny, half, 1, scale)
-        + _squares(integral, u, v, e * ex, e * ey, e * ex, e * ey, half, 1, scale)
+    ends = 0.5 * (
+        _squares(integral, u, v, e * ex, e * ey, e * ex, e * ey, half, 1, scale)
         + _squares(integral, u, v, -e * ex, -e * ey, -e * ex, -e * ey, half, 1, scale)
     )
+    # Its straight sides, at its middle and halfway to either end, each full: two balls side by side (a blob as long
+    # and as filled) have a waist at their middle, where these are empty.
+    sides = 1.0
+    for k in range(3):
+        w = 0.5 * (k - 1) * length
+        share = 0.5 * (
+            _squares(integral, u, v, d * nx + w * ex, d * ny + w * ey, d * nx + w * ex, d * ny + w * ey, half, 1, scale)
+            + _squares(integral, u, v, -d * nx + w * ex, -d * ny + w * ey, -d * nx + w * ex, -d * ny + w * ey, half, 1, scale)
+        )
+        sides = min(sides, share)
+    sides *= ends
     e = length + 0.85 * r  # the corners beyond the round ends, 1.2 r from their centres
     corners = 0.25 * (
         _squares(integral, u, v, e * ex + d * nx, e * ey + d * ny, e * ex + d * nx, e * ey + d * ny, half, 1, scale)

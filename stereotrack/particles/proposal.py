@@ -75,10 +75,10 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     out = [
         crossing_points(
             *a.rays,
-            a.blobs.radii,
+            a.blobs.ball_radii(),
             use[j],
             *b.rays,
-            b.blobs.radii,
+            b.blobs.ball_radii(),
             use[k],
             a.camera.R,
             a.camera.t,
@@ -126,11 +126,23 @@ class RayProposal:
         s = self.settings
         origins, dirs, near, far = [], [], [], []
         seeds = [v.proposal_seeds() for v in views]
-        for v, b in zip(views, seeds):
+        # How many tracked balls of this colour project into each blob: a held blob's ball has its particles (no
+        # crossings there), and two balls overlapping look like one ball's streak (their size is the larger side's,
+        # not the streak's width).
+        holders = None
+        if mine is not None and len(mine):
+            holders = []
+            for v, b in zip(views, seeds):
+                uv, ok = v.camera.project(mine.centres)
+                d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
+                holders.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).sum(axis=0))
+        held = None if holders is None else [h > 0 for h in holders]
+        for j, (v, b) in enumerate(zip(views, seeds)):
             if len(b) == 0:
                 continue
             if s.depth_from_size:
-                lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
+                size = b.radii if b.widths is None else np.where(holders[j] > 1, b.radii, b.widths) if holders is not None else b.widths
+                lo, hi = depth_range_from_size(v.camera, size, self.radius, s.d_min, s.d_max)
             else:
                 lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)
             origins.append(b.origins)
@@ -141,16 +153,8 @@ class RayProposal:
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
         crossings = np.zeros((0, 3))
         if s.crossing_share > 0:
-            # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
-            # into are left out (their ball has its particles; a partly hidden one's shifted centroid
-            # would cross at the wrong depth).
-            held = None
-            if mine is not None and len(mine):
-                held = []
-                for v, b in zip(views, seeds):
-                    uv, ok = v.camera.project(mine.centres)
-                    d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
-                    held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
+            # Crossings are for balls no track holds yet: held blobs are left out (their ball has its particles;
+            # a partly hidden one's shifted centroid would cross at the wrong depth).
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)

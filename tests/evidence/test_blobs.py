@@ -53,6 +53,16 @@ def test_a_streak_is_as_wide_as_its_ball_and_a_ball_cut_by_the_edge_keeps_its_si
     cv2.circle(m, (500, 100), 9, 1, -1)  # a whole ball
     b = find_blobs(m)
     order = np.argsort(b.centres[:, 0])
-    edge, streak, ball = b.radii[order]
+    edge, streak, ball = b.ball_radii()[order]
     assert 7.5 < streak < 10.0 and 9.5 <= edge <= 11.0 and 8.5 <= ball <= 10.0
     assert abs(abs(b.major[order[1]] @ np.array([120.0, 40.0]) / np.hypot(120, 40)) - 1) < 0.01  # along the streak
+
+
+def test_two_balls_side_by_side_are_not_a_streak():
+    """As long and as filled as a streak, but narrow at the middle: each ball's size, not a streak's width (a crossing
+    of two rays through the pair's centroid would put a ghost between them)."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.circle(m, (300, 200), 12, 1, -1)
+    cv2.circle(m, (323, 205), 12, 1, -1)
+    b = find_blobs(m)
+    assert len(b) == 1 and b.ball_radii()[0] > 20

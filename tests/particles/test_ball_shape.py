@@ -89,7 +89,7 @@ def test_a_streak_scores_at_its_centre_as_a_ball_swept_along_it():
     disc = shape(BALL[None], evidence(rig, disc_masks(rig, BALL[None])[0]), None)[0]
     for velocity in (np.array([0.12, 0.0, 0.0]), np.array([0.09, 0.0, 0.07])):  # along the image's rows, and slanted
         views = evidence(rig, _streak_masks(rig, BALL, velocity))
-        assert all(v.blobs.radii[0] < 1.3 * rig.cameras[0].K[0, 0] * RADIUS / 1.5 for v in views)  # its width, not its length
+        assert all(v.blobs.ball_radii()[0] < 1.3 * rig.cameras[0].K[0, 0] * RADIUS / 1.5 for v in views)  # its width, not its length
         at_centre = shape(BALL[None], views, None)[0]
         assert at_centre > 0.5 * disc, (at_centre, disc)
         ray = BALL / np.linalg.norm(BALL)
