@@ -263,7 +263,7 @@ class CameraPairSource:
         now = time.monotonic()
         for dev in opened:
             if hasattr(dev, "start_at"):
-                dev.start_at(now)  # video files: frame k of each is due at one moment, however late a thread starts
+                dev.start_at(now)  # files and simulated views: frame k of each is due at one moment, however late a thread starts
         self._threads = [_CameraThread(self, i, dev, spec) for i, (dev, spec) in enumerate(zip(opened, specs))]
         for th in self._threads:
             th.start()

@@ -259,11 +259,17 @@ class SimulatedCamera:
             w, h = int(self._props[cv2.CAP_PROP_FRAME_WIDTH]), int(self._props[cv2.CAP_PROP_FRAME_HEIGHT])
             self._scene = _SharedScene.get(self.preset, w, h, self.fps, self.loop, self.sends_jpeg)
 
+    def start_at(self, t: float) -> None:
+        """Frame 0 is due at ``t`` (time.monotonic): the cameras of one rig share one clock, so
+        frame k of each view is one moment of the scene however late each thread starts."""
+        self._start = t
+
     def grab(self) -> bool:
         if self._released.is_set():
             return False
-        if self._start is None:
+        if self._scene is None:
             self.prepare()
+        if self._start is None:
             self._start = time.monotonic()
         period = 1.0 / self.fps
         while True:
