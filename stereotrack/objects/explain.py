@@ -171,7 +171,8 @@ def explain(
     out = [merged[i] for i in kept]
     if settings.refine:
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
-        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted)
+        swept = _swept(views, predicted, settings.radius)
+        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept)
     return out, into
 
 
@@ -256,9 +257,29 @@ def _held_twice(predicted: np.ndarray | None, cameras, blobs, radius: float) -> 
     return out
 
 
-def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, shared: list[set[int]]) -> np.ndarray:
-    """Size ratios of streaks against their width (but where two tracked balls overlap: ``shared``), where a
-    streak thinner than its ball counts as the ball's size: a fast ball's colour is diluted by the
+def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius: float) -> list[np.ndarray]:
+    """Per camera, per blob: a fast ball's streak. Shaped like one (``Blobs.widths``), mostly moving (a static prop as
+    long and as filled is not: its blob in the refine step would be clean, and its object a steady false track:
+    clutter 0.976 -> 0.907), and not where two tracked balls overlap (two balls side by side look like a streak)."""
+    cameras, blobs = [v.camera for v in views], [v.blobs for v in views]
+    shared = _held_twice(predicted, cameras, blobs, radius)
+    out = []
+    for j, (v, b) in enumerate(zip(views, blobs)):
+        swept = np.zeros(len(b), bool)
+        if b.widths is not None and b.boxes is not None and v.moving_integral is not None and len(b):
+            swept = b.widths != b.radii
+            for k in np.flatnonzero(swept):
+                x0, y0, x1, y1 = (int(c) * b.label_scale for c in b.boxes[k])
+                h, w = v.moving_integral.shape[0] - 1, v.moving_integral.shape[1] - 1
+                x1, y1 = min(x1, w), min(y1, h)
+                moving = v.moving_integral[y1, x1] - v.moving_integral[y0, x1] - v.moving_integral[y1, x0] + v.moving_integral[y0, x0]
+                swept[k] = moving >= 0.8 * b.areas[k] and k not in shared[j]
+        out.append(swept)
+    return out
+
+
+def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
+    """Size ratios of streaks (``swept``) against their width, where a streak thinner than its ball counts as the ball's size: a fast ball's colour is diluted by the
     background it swept over, most at the streak's edges, so the part in range is thinner than the ball (never wider).
     Its centroid is still the ball's mean position, which triangulates to a few centimetres at 7 m (fast_ball tune seed 4)
     where the particles, judging the disc's size, drift 0.15 m."""
@@ -268,7 +289,7 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, sha
             continue
         on = blob_ids[:, j] >= 0
         ids = blob_ids[on, j]
-        streak = (b.widths[ids] != b.radii[ids]) & ~np.isin(ids, list(shared[j]))  # two tracked balls in it: not a streak
+        streak = swept[j][ids]
         on[on] = streak
         ids = ids[streak]
         ratio = out[on, j] + np.log(np.maximum(b.widths[ids], 0.5) / np.maximum(b.radii[ids], 0.5))  # against its width
@@ -276,7 +297,7 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, sha
     return out
 
 
-def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted) -> list[Object3D]:
+def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
     Balls with two or more clean views are triangulated together (one call per set of cameras); a
@@ -284,7 +305,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
     then placed against the other balls' discs there, one ball at a time, each against the latest
     positions of the others.
     """
-    log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, _held_twice(predicted, cameras, blobs, settings.radius))
+    log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
     views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, settings) for n, i in enumerate(kept)}
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}
