@@ -138,7 +138,7 @@ def _axes(second: np.ndarray) -> np.ndarray:
     return 2.0 * np.sqrt(np.maximum(np.column_stack([mean + spread, mean - spread]), 0.0))
 
 
-STREAK_ELONGATION = 1.5  # a blob this much longer than wide, ...
+STREAK_ELONGATION = 2.0  # a blob this much longer than wide, ...
 STREAK_FILL = 0.8  # ... that fills its moments' ellipse this much, is a ball swept along a line (a capsule fills it 0.9-1.1)
 
 

@@ -152,5 +152,9 @@ def _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_are
             o.append(mo)
             d.append(md)
     return Seeds(
-        np.vstack(centres).reshape(-1, 2), np.concatenate(radii), np.vstack(o).reshape(-1, 3), np.vstack(d).reshape(-1, 3), np.concatenate(widths)
+        np.vstack(centres).reshape(-1, 2),
+        np.concatenate(radii),
+        np.vstack(o).reshape(-1, 3),
+        np.vstack(d).reshape(-1, 3),
+        np.concatenate(widths),
     )

@@ -279,7 +279,8 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
 
 
 def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
-    """Size ratios of streaks (``swept``) against their width, where a streak thinner than its ball counts as the ball's size: a fast ball's colour is diluted by the
+    """Size ratios of streaks (``swept``) against their width, where a streak thinner than its ball counts as the
+    ball's size: a fast ball's colour is diluted by the
     background it swept over, most at the streak's edges, so the part in range is thinner than the ball (never wider).
     Its centroid is still the ball's mean position, which triangulates to a few centimetres at 7 m (fast_ball tune seed 4)
     where the particles, judging the disc's size, drift 0.15 m."""

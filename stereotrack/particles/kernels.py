@@ -253,7 +253,8 @@ def _capsule(integral, u, v, r, length, ex, ey, core, scale):
     """How much a ball of apparent radius ``r`` swept ``length`` pixels either way along the unit vector (ex, ey) during
     the exposure (a capsule centred on (u, v), the ball's mean position) is what this map shows: ``core`` (the share set
     inside the disc's core square, which the caller has) x the sides of the capsule, across it (at its middle and
-    halfway to its ends: no waist) and inside its round ends, full x the corners beyond its ends empty x the ring around it, on its second-emptiest side of four (across it on
+    halfway to its ends: no waist) and inside its round ends, full x the corners beyond its ends empty x the ring
+    around it, on its second-emptiest side of four (across it on
     either side, beyond either end), empty. The disc's test (``_centre_surround``) is this with no length."""
     nx, ny = -ey, ex  # across the streak
     half = max(0.12 * r, 0.5)
@@ -286,13 +287,39 @@ def _capsule(integral, u, v, r, length, ex, ey, core, scale):
     ring, second = 1.0, 1.0
     for k in range(4):
         if k == 0:
-            share = _squares(integral, u, v, g * nx - length * ex, g * ny - length * ey, g * nx + length * ex, g * ny + length * ey, ring_half, steps, scale)
+            share = _squares(
+                integral,
+                u,
+                v,
+                g * nx - length * ex,
+                g * ny - length * ey,
+                g * nx + length * ex,
+                g * ny + length * ey,
+                ring_half,
+                steps,
+                scale,
+            )
         elif k == 1:
-            share = _squares(integral, u, v, -g * nx - length * ex, -g * ny - length * ey, -g * nx + length * ex, -g * ny + length * ey, ring_half, steps, scale)
+            share = _squares(
+                integral,
+                u,
+                v,
+                -g * nx - length * ex,
+                -g * ny - length * ey,
+                -g * nx + length * ex,
+                -g * ny + length * ey,
+                ring_half,
+                steps,
+                scale,
+            )
         elif k == 2:
-            share = _squares(integral, u, v, far * ex - g * nx, far * ey - g * ny, far * ex + g * nx, far * ey + g * ny, ring_half, 3, scale)
+            share = _squares(
+                integral, u, v, far * ex - g * nx, far * ey - g * ny, far * ex + g * nx, far * ey + g * ny, ring_half, 3, scale
+            )
         else:
-            share = _squares(integral, u, v, -far * ex - g * nx, -far * ey - g * ny, -far * ex + g * nx, -far * ey + g * ny, ring_half, 3, scale)
+            share = _squares(
+                integral, u, v, -far * ex - g * nx, -far * ey - g * ny, -far * ex + g * nx, -far * ey + g * ny, ring_half, 3, scale
+            )
         if share < ring:
             ring, second = share, ring
         elif share < second:
