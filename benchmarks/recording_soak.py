@@ -231,7 +231,38 @@ def record(seconds: float = 60.0, live: bool = False) -> None:
             if m
             else res.stderr
         )
+        replay_cpu(out)
     shutil.rmtree(out.parent)
+
+
+def replay_cpu(folder: Path) -> None:
+    """Replay in this process as `track --all-frames` does, and split its CPU time per frame: the tracker's thread
+    (the step and the sinks) and the others (decoding, the next pair's colour masks). On a machine nobody else uses, the run cannot be faster than
+    either the tracker's thread or the whole CPU time shared by the cores: a bound that load does not move much,
+    where the frames/s above follow the load."""
+    import os
+
+    from stereotrack.capture.replay import RecordingSource
+    from stereotrack.commands.track import resolve_config
+    from stereotrack.pipeline.run import run_pipeline
+    from stereotrack.pipeline.tracker import Tracker
+    from stereotrack.recording import open_recording
+    from stereotrack.sinks.tracks_csv import TracksCsvSink
+
+    rec = open_recording(folder)
+    tracker = Tracker(rec.rig, resolve_config(rec, None))
+    source = RecordingSource(rec)
+    cpu, main, wall = time.process_time(), time.thread_time(), time.perf_counter()
+    summary = run_pipeline(source, tracker, [TracksCsvSink(folder.parent / "cpu.csv")], progress=False, ahead=True)  # as `track` does
+    cpu, main, wall = time.process_time() - cpu, time.thread_time() - main, time.perf_counter() - wall
+    source.close()
+    n, cores = summary.frames, os.cpu_count() or 1
+    per = lambda x: 1e3 * x / n  # noqa: E731
+    bound = 1e3 / max(per(main), per(cpu) / cores)
+    print(
+        f"replay CPU per frame: tracker thread {per(main):.1f} ms, other threads (decoding; the next pair's colour masks) {per(cpu - main):.1f} ms "
+        f"({n / wall:.1f} frames/s here, load average {os.getloadavg()[0]:.1f}): at most {bound:.0f} frames/s on {cores} idle cores"
+    )
 
 
 # --------------------------------------------------------------------------- kills and stops

@@ -38,6 +38,11 @@ class Target:
     def wraps(self) -> bool:
         return self.hsv_min[0] > self.hsv_max[0]
 
+    @property
+    def any_hue(self) -> bool:
+        """A range that takes every hue: a white, grey or black ball, told from the room by brightness alone."""
+        return self.hsv_min[0] == 0 and self.hsv_max[0] >= 179
+
 
 def setting(default: Any, doc: str, *, low: float | None = None, high: float | None = None, choices: tuple[str, ...] = ()) -> Any:
     """A documented setting: its default, what it means, and the values it accepts, side by side.
@@ -73,6 +78,14 @@ class TrackerSettings:
     )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
+    )
+    evidence_scale: int = setting(
+        0,
+        "build each camera's evidence on a grid this many times coarser than its images (1 = every pixel); 0 = automatic: "
+        "2 for images 1280 pixels wide or more where the smallest ball at d_max still spans 5 pixels of radius, with the "
+        "ball_shape likelihood; else 1",
+        low=0,
+        high=8,
     )
     threads: int = setting(
         1,

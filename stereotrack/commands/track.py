@@ -150,7 +150,9 @@ def _track(args, default_out: Path | None, stopper) -> int:
             yield pair
 
     try:
-        summary = run_pipeline(until_stopped(source), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted))
+        summary = run_pipeline(
+            until_stopped(source), tracker, [*sinks, _Counter()], progress=not args.quiet, total=len(wanted), ahead=not args.realtime
+        )
     finally:
         source.close()  # the readers stop before anything else
     skipped = source.stats.pairs_dropped

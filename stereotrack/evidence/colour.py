@@ -47,13 +47,24 @@ class CameraMasks:
     masks: dict[str, np.ndarray]  # target name -> uint8 0/1 mask
     integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32 (empty when not asked for)
     hsv: np.ndarray | None = None  # the frame in HSV, for colour models
+    motion_ranges: dict[str, np.ndarray] | None = None  # target name -> where its moving part may lie, if not its range (motion_range)
 
 
 def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...], integrals: bool = True) -> CameraMasks:
     """HSV conversion once, then one mask and (unless ``integrals`` is False) one integral image per target."""
     hsv = to_hsv(image_bgr)
     masks = {t.name: target_mask(hsv, t) for t in targets}
-    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv)
+    motion = {t.name: target_mask(hsv, motion_range(t)) for t in targets if t.any_hue}
+    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv, motion)
+
+
+def motion_range(target: Target) -> Target:
+    """Where a moving ball's pixels may lie: its range, but any darker for a ball of every hue. A white or grey
+    ball's shaded side is grey, below the value a user types for it (its lit side); its hue says nothing, so
+    only saturation tells it from a coloured thing (skin, a shirt) moving too."""
+    if not target.any_hue:
+        return target
+    return Target(target.name, (0, target.hsv_min[1], 0), (179, target.hsv_max[1], target.hsv_max[2]), target.radius)
 
 
 # --------------------------------------------------------------------------- learning

@@ -8,9 +8,10 @@ explain-away looks the blobs up, the viewer draws the rays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 
+import cv2
 import numpy as np
 
 from ..camera import Camera
@@ -76,6 +77,8 @@ class CameraEvidence:
         ball: tuple[float, float, float] | None = None,
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
+        background_hsv: np.ndarray | None = None,
+        motion_range: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -83,37 +86,71 @@ class CameraEvidence:
         could be such a ball seed particles (``blobs.ball_like``). With the colour model's ``colour_table``
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
-        kept too; the moving map still takes the whole range (a ball moving in front of its own colour).
+        kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
+        ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
+        in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
+        ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
+        The blobs are those of the mask and the moving map together: what the likelihood counts is what
+        explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
-        soft_integral = moving = moving_integral = None
+        soft_integral = moving = moving_integral = sure = None
         if colour_table is not None or foreground is not None:
             soft = np.zeros_like(in_range) if colour_table is not None else _NO_TABLE
             mask = np.zeros_like(in_range) if colour_table is not None else in_range
             moving = np.zeros_like(in_range) if foreground is not None else None
+            sure = np.zeros_like(in_range) if colour_table is not None and ball is not None else None
             h, w = in_range.shape
+            own = motion_range is not None and foreground is not None
+            rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
             evidence_maps(
                 in_range,
-                in_range.max(axis=1),  # which rows hold any pixel in range (numpy's reduction is vectorised)
+                np.maximum(rows, motion_range.max(axis=1)) if own else rows,
                 hsv if colour_table is not None else _NO_HSV,
                 colour_table if colour_table is not None else _NO_TABLE,
                 foreground if foreground is not None else _NO_TABLE,
                 _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX,
                 _nearest(foreground.shape[1], w) if foreground is not None else _NO_INDEX,
+                motion_range if own else _NO_TABLE,
                 soft,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
+                sure if sure is not None else _NO_TABLE,
+                SURE,
+                background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
             if moving is not None:
                 moving_integral = integral_image(moving)
-        blobs = find_blobs(mask, blob_method, min_blob_area)
+        blobs = find_blobs(mask if moving is None else cv2.bitwise_or(mask, moving), blob_method, min_blob_area)
         origins, directions = camera.rays(blobs.centres)
         seeds = None
         if ball is not None or moving is not None:
-            seeds = _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_area, ball)
+            seeds = _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_blob_area, ball)
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral)
+
+
+def on_grid(camera: Camera, scale: int) -> Camera:
+    """The camera that sees every ``scale``-th pixel of ``camera``'s images in each direction (``every_nth``):
+    focal lengths and principal point / scale. Evidence built on that grid reads with this camera, and every later
+    stage follows it."""
+    if scale == 1:
+        return camera
+    K = np.array(camera.K, dtype=float)
+    K[:2] /= scale
+    return replace(camera, image_size=(camera.width // scale, camera.height // scale), K=K)
+
+
+def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
+    """Every ``scale``-th pixel of the image in each direction (pixel j is the image's pixel scale j). Picked, not
+    averaged: each keeps a full-size pixel's colour and noise, which the colour model has learnt (an average is
+    less noisy, so a large ball's colours crowd into fewer bins and look like a wall's)."""
+    if scale == 1:
+        return image
+    h, w = image.shape[:2]
+    # OpenCV's nearest-neighbour resize by a whole factor picks exactly these pixels, several times faster than numpy's strided copy.
+    return cv2.resize(image[: h - h % scale, : w - w % scale], (w // scale, h // scale), interpolation=cv2.INTER_NEAREST)
 
 
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
@@ -129,14 +166,29 @@ def _nearest(small: int, full: int) -> np.ndarray:
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
+# p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
+# or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
+SURE = 191
 
 
-def _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_area, ball) -> Seeds:
+def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_blob_area, ball) -> Seeds:
     """Ball-like blobs of the colour mask, then those of its moving part that are not the same blob again
-    (a ball moving in front of a wall of its colour is a blob of its own only in the moving part)."""
+    (a ball moving in front of a wall of its colour is a blob of its own only in the moving part), then, when
+    a colour blob was no ball (a ball merged with scenery of its hue: a hand, a prop, a wall), the ball-like
+    blobs of the colour that is surely the ball's that no seed holds yet."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
     widths = [blobs.ball_radii()[keep]]
+
+    def take(more: Blobs, new: np.ndarray) -> None:
+        if new.any():
+            mo, md = camera.rays(more.centres[new])
+            centres.append(more.centres[new])
+            radii.append(more.radii[new])
+            widths.append(more.ball_radii()[new])
+            o.append(mo)
+            d.append(md)
+
     if moving is not None:
         mb = find_blobs(moving, blob_method, min_blob_area)
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
@@ -144,13 +196,15 @@ def _seeds(camera, blobs, origins, directions, moving, blob_method, min_blob_are
             dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
             same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
             new &= ~same.any(axis=1)
-        if new.any():
-            mo, md = camera.rays(mb.centres[new])
-            centres.append(mb.centres[new])
-            radii.append(mb.radii[new])
-            widths.append(mb.ball_radii()[new])
-            o.append(mo)
-            d.append(md)
+        take(mb, new)
+    if sure is not None and not keep.all():
+        sb = find_blobs(sure, blob_method, min_blob_area)
+        new = ball_like(sb, camera.focal_px, *ball)
+        held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
+        if len(sb) and len(held_c):
+            dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)
+            new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
+        take(sb, new)
     return Seeds(
         np.vstack(centres).reshape(-1, 2),
         np.concatenate(radii),

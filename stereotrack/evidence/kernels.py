@@ -86,31 +86,48 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
-def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, soft, mask, moving):
+def evidence_maps(
+    in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, sure, sure_level, behind
+):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
 
     - with a colour ``table`` (p(ball | colour) x 255 per hue-saturation bin; empty: no colour model) the
       ``soft`` map, p inside the range, and ``mask`` = soft > 127 (what OpenCV's back-projection, a masked
-      AND and a threshold give, in one pass that reads only pixels in range);
+      AND and a threshold give, in one pass that reads only pixels in range), and (``sure`` not empty)
+      ``sure`` = soft > ``sure_level``;
     - with a ``foreground`` map (empty: no motion; pixel (x, y) reads foreground[fg_rows[y], fg_cols[x]],
-      nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground.
-    Rows with no pixel in range (``rows_in_range`` 0; most rows: the range is a few balls) are passed over."""
+      nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground; with a
+      ``motion_range`` (0/1; empty: the range) that map instead of the range; with the table and the background
+      in HSV (``behind``, on the foreground's grid; empty: none), a pixel in range moves only where it is at
+      least as likely the ball's colour as what the background held there (where a ball was and a wall of its
+      hue is now, the wall moved in no sense).
+    Rows with no pixel in either (``rows_in_range`` 0; most rows: the range is a few balls) are passed over."""
     h, w = in_range.shape
     use_table = table.shape[0] > 0
     use_fg = foreground.shape[0] > 0
+    use_sure = sure.shape[0] > 0
+    use_behind = use_table and use_fg and behind.shape[0] > 0
+    own_motion_range = motion_range.shape[0] > 0
     for y in range(h):
         if not rows_in_range[y]:
             continue
         fy = fg_rows[y] if use_fg else 0
         for x in range(w):
-            if in_range[y, x]:
-                if use_table:
-                    p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
-                    soft[y, x] = p
-                    mask[y, x] = 1 if p > 127 else 0
-                if use_fg:
-                    moving[y, x] = 1 if foreground[fy, fg_cols[x]] else 0
+            inside = in_range[y, x]
+            p = 0
+            if inside and use_table:
+                p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
+                soft[y, x] = p
+                mask[y, x] = 1 if p > 127 else 0
+                if use_sure:
+                    sure[y, x] = 1 if p > sure_level else 0
+            if use_fg and (motion_range[y, x] if own_motion_range else inside):
+                fx = fg_cols[x]
+                moves = foreground[fy, fx] != 0
+                if moves and use_behind and inside:
+                    moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
+                moving[y, x] = 1 if moves else 0
 
 
 @kernel
@@ -137,24 +154,32 @@ def hs_histograms(hsv, step, in_range, discs):
 
 
 @kernel
-def background_step(image, background, learn, rate, threshold, moving):
+def background_step(image, background, previous, calm, learn, gain, rate, threshold, moving):
     """One frame of the background model (motion.py), in one pass over the image: each 2 x 2 block of
-    ``image`` (H x W x 3 uint8) averaged (as cv2.resize's INTER_AREA halves an image) is compared with its
-    ``background`` cell (H/2 x W/2 x 3 float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the
-    background rounded to grey levels) exceeds ``threshold``; then the cell learns the block,
+    ``image`` (H x W x 3 uint8) averaged (as cv2.resize's INTER_AREA halves an image) and scaled by the frame's
+    ``gain`` per channel (the lighting's drift undone) is compared with its ``background`` cell (H/2 x W/2 x 3
+    float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the background rounded to grey levels) exceeds
+    ``threshold``. ``calm`` counts the frames in a row (at most 255) each block has differed from the
+    ``previous`` frame's (uint8, updated here) by at most ``threshold``. Then the cell learns the block,
     b += rate (block - b), where ``learn`` is set."""
     h, w = background.shape[0], background.shape[1]
     a = np.float32(rate)
     for j in range(h):
         top, bottom = image[2 * j], image[2 * j + 1]
-        cells, learning, out = background[j], learn[j], moving[j]
+        cells, before, count, learning, out = background[j], previous[j], calm[j], learn[j], moving[j]
         for i in range(w):
             change = np.int32(0)
+            step = np.int32(0)
             for c in range(3):
                 block = (
                     np.int32(top[2 * i, c]) + np.int32(top[2 * i + 1, c]) + np.int32(bottom[2 * i, c]) + np.int32(bottom[2 * i + 1, c]) + 2
                 ) >> 2
+                if gain[c] != 1.0:
+                    block = min(np.int32(np.float32(block) * gain[c] + np.float32(0.5)), np.int32(255))
                 change += abs(block - np.int32(cells[i, c] + np.float32(0.5)))  # the background is >= 0: + 0.5 rounds it
+                step += abs(block - np.int32(before[i, c]))
+                before[i, c] = block
                 if learning[i]:
                     cells[i, c] += a * (np.float32(block) - cells[i, c])
             out[i] = 1 if change > threshold else 0
+            count[i] = min(count[i] + 1, 255) if step <= threshold else 0

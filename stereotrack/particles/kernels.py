@@ -192,21 +192,31 @@ def _four(integral, u, v, dx, dy, half):
     return c_sum / a_sum if a_sum > 0.0 else 0.0
 
 
+HALF_SHOWN = 0.8  # what a ball showing only a full half of its disc scores, against a whole one
+
+
 @kernel(inline="always")
-def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound):
+def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound, halves):
     """How much a disc of apparent radius ``r`` at (u, v) is what this map shows there. Four looks, each a
     share of set pixels: the disc's core (should be full), its four sides just inside its edge (full: a
     patch smaller than the disc leaves them empty), the four corners of its bounding square (empty: a
     square or a wider patch fills them), and the ring around it, on its second-emptiest side of four
     (empty: a wall fills every side, its straight edge three, a neighbouring ball or box only one). The score
-    is core x sides x (1 - corners) x (1 - ring). Every factor is at most 1, so a core fill at or under
-    ``bound`` (what the caller already has) is returned as it is: the other looks could not raise it."""
-    c_in, a_in = _box_count(integral, u, v, max(inner * r, 0.5))
+    is core x sides x (1 - corners) x (1 - ring). With ``halves`` (the moving map: scenery does not move), a ball
+    may be half hidden (fingers over a ball in a hand, a prop's edge in front of it): a half of the core that is
+    full, with the side square in that half full, counts HALF_SHOWN as much as a whole disc, if what surrounds it
+    is clear (the straight edge of a moving thing fills half the core, half the corners and half the ring). Not
+    in the colour map: the stripes of a curtain of the ball's colour are half discs side by side.
+    Every factor is at most 1, so a core whose best look is at or under ``bound`` (what the caller already has)
+    is returned as it is: the other looks could not raise it."""
+    hc = max(inner * r, 0.5)
+    c_in, a_in = _box_count(integral, u, v, hc)
     if a_in == 0.0:
         return 0.0
     a_in *= scale  # a pixel is worth up to ``scale`` (a probability map x 255), else 1
-    if c_in / a_in <= bound:
-        return c_in / a_in
+    core = c_in / a_in
+    if max(core, HALF_SHOWN * min(1.0, 2.0 * core) if halves else 0.0) <= bound:  # a half holds at most twice the whole's share
+        return core
     a, b = mid * r, outer * r
     ring, second = 1.0, 1.0  # the emptiest strip and the next
     seen = 0
@@ -233,7 +243,18 @@ def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound):
     half = max(0.12 * r, 0.5)  # sides and corners: squares of 0.24 r, centred 0.85 r out: inside the disc, or outside it
     sides = _four(integral, u, v, 0.85 * r, 0.0, half) / scale
     corners = _four(integral, u, v, 0.85 * r, 0.85 * r, half) / scale
-    return (c_in / a_in) * sides * (1.0 - corners) * (1.0 - ring)
+    whole = core * sides
+    shown = 0.0
+    for k in range(2 if halves else 0):  # the halves above and below the centre, each with its side square
+        sy = -1.0 if k == 0 else 1.0
+        c, n = _rect_count(integral, u - hc, u + hc, min(v, v + sy * hc), max(v, v + sy * hc))
+        cs, ns = _box_count(integral, u, v + sy * 0.85 * r, half)
+        if n > 0.0 and ns > 0.0:
+            shown = max(shown, HALF_SHOWN * (c / (n * scale)) * (cs / (ns * scale)))
+    # A half disc must stand clear: the straight edge of a wall or a box fills half the core too, with half the
+    # corners and half the ring, which count twice against it.
+    clear = (1.0 - corners) * (1.0 - ring)
+    return max(whole * clear, shown * clear * clear)
 
 
 @kernel(inline="always")
@@ -377,9 +398,9 @@ def ball_shape_likelihood(
             c, a = _box_count(colour, u, v, max(inner * r, 0.5))
             out[i] *= max(c / (a * colour_scale) if a > 0.0 else 0.0, floor)
             continue
-        best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor), floor)
+        best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor, False), floor)
         if use_moving:
-            best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0, best))
+            best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0, best, True))
         if streak.shape[0]:  # on a streak (a blob of the mask that is one): also a ball swept along it
             b = label_blob[labels[min(int(v) // label_scale, labels.shape[0] - 1), min(int(u) // label_scale, labels.shape[1] - 1)]]
             if b >= 0 and streak[b]:

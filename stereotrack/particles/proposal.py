@@ -72,6 +72,8 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     are blobs marked in ``skip`` (per camera, a bool per blob).
     """
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
+    if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
+        raise ValueError("ray_crossings: skip needs one flag per blob of each view")
     out = [
         crossing_points(
             *a.rays,
@@ -136,7 +138,6 @@ class RayProposal:
                 uv, ok = v.camera.project(mine.centres)
                 d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
                 holders.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).sum(axis=0))
-        held = None if holders is None else [h > 0 for h in holders]
         for j, (v, b) in enumerate(zip(views, seeds)):
             if len(b) == 0:
                 continue
@@ -153,8 +154,18 @@ class RayProposal:
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
         crossings = np.zeros((0, 3))
         if s.crossing_share > 0:
-            # Crossings are for balls no track holds yet: held blobs are left out (their ball has its particles;
-            # a partly hidden one's shifted centroid would cross at the wrong depth).
+            # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
+            # into are left out (their ball has its particles; a partly hidden one's shifted centroid
+            # would cross at the wrong depth).
+            held = None
+            if mine is not None and len(mine):
+                # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
+                held = []
+                for v in views:
+                    b = v.blobs
+                    uv, ok = v.camera.project(mine.centres)
+                    d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
+                    held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts, _ = particles_on_rays(np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), n - n_cross, rng)

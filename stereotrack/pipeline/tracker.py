@@ -19,7 +19,7 @@ from ..config import Config, Target
 from ..errors import StereotrackError
 from ..evidence.colour import camera_masks
 from ..evidence.colour_model import ColourModel, load_colour_model
-from ..evidence.gather import CameraEvidence
+from ..evidence.gather import CameraEvidence, every_nth, on_grid
 from ..evidence.motion import BackgroundModel
 from ..frames import FramePair
 from ..kernels import KERNELS
@@ -42,17 +42,8 @@ class Tracker:
         self.rig = rig
         self.config = config
         self.keep_rays = keep_rays
-        warm_up()  # compile (first run on a machine) or load the kernels now, not in the first frame
         s = config.tracker
-        root = np.random.default_rng(s.seed)
-        self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
-        self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
-        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius) for t in config.targets}
-        self.cluster_rng = np.random.default_rng(root.integers(2**63))
-        self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
-        self.identities = TrackManager(config.tracks, rig)
-        self.radius = {t.name: t.radius for t in config.targets}
-        self.backgrounds = [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in rig.cameras] if s.motion else None
+        # the user's files first: a damaged colour model is refused before the (slow) kernel warm-up
         self.colour_models = (
             {
                 t.name: [ColourModel.for_target(t, load_colour_model(t.colour_model) if t.colour_model else None) for _ in rig.cameras]
@@ -61,11 +52,40 @@ class Tracker:
             if s.colour_model
             else None
         )
+        warm_up()  # compile (first run on a machine) or load the kernels now, not in the first frame
+        root = np.random.default_rng(s.seed)
+        self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
+        self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
+        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius) for t in config.targets}
+        self.cluster_rng = np.random.default_rng(root.integers(2**63))
+        self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
+        self.identities = TrackManager(config.tracks, rig)
+        self.radius = {t.name: t.radius for t in config.targets}
+        # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
+        # reads that grid's image too (and keeps half its size, motion.py).
+        smallest = min(t.radius for t in config.targets)
+        self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
+        self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
+        self.backgrounds = (
+            [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
+        )
         self.last_time: float | None = None
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
-    def step(self, pair: FramePair) -> FrameResult:
+    def colours(self, images) -> list:
+        """Per camera: the image on its evidence grid and that image's HSV and range masks. The step's first part,
+        and nothing the tracks hold changes it: a caller with the next pair at hand may make it ahead, in another
+        thread (pipeline/run.py), and give it to ``step``."""
+        return [self._colours(j, image) for j, image in enumerate(images)]
+
+    def _colours(self, j: int, image: np.ndarray):
+        small = every_nth(image, self.scales[j])
+        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
+        return small, camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
+
+    def step(self, pair: FramePair, colours: list | None = None) -> FrameResult:
+        """Track one pair; ``colours``: the pair's ``colours(pair.images)``, when it was made ahead."""
         self.rig.check_images(pair.images)
         s = self.config.tracker
         now = pair.time
@@ -81,9 +101,8 @@ class Tracker:
         # Each camera's evidence, once: its masks, then each target's blobs and their viewing rays, read by
         # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
         # parts release the GIL).
-        per_camera = list(
-            self._pool.map(self._camera_evidence, range(len(cams)), pair.images, [balls] * len(cams), [confirmed] * len(cams))
-        )
+        n = len(cams)
+        per_camera = list(self._pool.map(self._camera_evidence, range(n), pair.images, [balls] * n, [confirmed] * n, colours or [None] * n))
         cmasks = [cm for cm, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
         for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
@@ -119,7 +138,11 @@ class Tracker:
         timings["tracks"] = 1e3 * (t5 - t4)
         timings["step"] = 1e3 * (t5 - t0)
         shown_rays = (
-            tuple(Rays(name, v.camera.name, v.origins, v.directions, v.blobs.centres) for name, vs in views.items() for v in vs)
+            tuple(
+                Rays(name, v.camera.name, v.origins, v.directions, v.blobs.centres * k)  # full-size pixels
+                for name, vs in views.items()
+                for v, k in zip(vs, self.scales)
+            )
             if self.keep_rays
             else ()
         )
@@ -136,14 +159,13 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls):
-        """Camera j's masks, and every target's evidence in it; with the ms each half took."""
+    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls, colours=None):
+        """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took."""
         s = self.config.tracker
-        cam = self.rig.cameras[j]
+        cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
-        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all.
-        cm = camera_masks(cam.name, image, self.config.targets, integrals=False)
-        foreground = self.backgrounds[j].update(image, balls) if self.backgrounds else None
+        small, cm = colours if colours is not None else self._colours(j, image)
+        foreground = self.backgrounds[j].update(small, balls) if self.backgrounds else None
         t1 = time.perf_counter()
         views = {
             t.name: CameraEvidence.from_mask(
@@ -151,11 +173,13 @@ class Tracker:
                 cm.masks[t.name],
                 None,
                 s.blob_method,
-                s.min_blob_area,
+                max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
                 foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
+                self.backgrounds[j].hsv if self.backgrounds else None,
+                cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
             )
             for t in self.config.targets
         }
@@ -168,11 +192,25 @@ class Tracker:
             return None
         model = self.colour_models[target.name][j]
         table = model.table(cm.hsv)
-        cam = self.rig.cameras[j]
+        cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
         return table
+
+
+HALF_GRID_MIN_WIDTH = 1280  # automatic evidence_scale: images this wide or wider ...
+HALF_GRID_MIN_RADIUS_PX = 5.0  # ... where the smallest ball at d_max spans at least this radius (full-size pixels)
+
+
+def evidence_scale(s, camera: Camera, radius: float) -> int:
+    """How many image pixels a side of one evidence cell spans in this camera (TrackerSettings.evidence_scale);
+    ``radius``: the smallest target's, metres. Automatic: every other pixel where even that ball at the farthest
+    depth looks large (a small or far ball, a few pixels wide, keeps every pixel)."""
+    if s.evidence_scale:
+        return s.evidence_scale
+    large = camera.focal_px * radius / s.d_max >= HALF_GRID_MIN_RADIUS_PX
+    return 2 if camera.width >= HALF_GRID_MIN_WIDTH and large and s.likelihood == "ball_shape" else 1
 
 
 class _InThisThread:

@@ -289,7 +289,7 @@ def test_slow_consumer_drops_the_oldest_pairs_and_stays_in_the_present():
     lag = [now - p.time for now, p in received]
     assert max(lag[5:]) < 0.15 + 3 * PERIOD
     ages = np.diff([p.time for _, p in received])
-    assert ages.min() >= 3 * PERIOD  # consecutive pairs jump over the dropped ones
+    assert ages.min() >= 3 * PERIOD - 0.01  # consecutive pairs jump over the dropped ones (less the frames' 2 ms jitter)
 
 
 def test_a_camera_that_hangs_ends_iteration_with_a_clear_error():

@@ -66,3 +66,26 @@ def test_two_balls_side_by_side_are_not_a_streak():
     cv2.circle(m, (323, 205), 12, 1, -1)
     b = find_blobs(m)
     assert len(b) == 1 and b.ball_radii()[0] > 20
+
+
+def test_a_ball_merged_with_scenery_of_its_hue_still_seeds_where_its_colour_is_sure():
+    """A ball held by an arm, or touching a prop or a wall of its hue: the mask (p > 0.5) makes one blob of both,
+    which is no ball. Where p(ball | colour) is near 1 (the ball, not the arm at about 0.55) the ball is a blob
+    of its own, and it seeds abductive particles."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.colour_model import H_BINS, HUE_STEP, S_BINS, SAT_STEP
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    cv2.rectangle(hsv, (150, 100), (330, 400), (100, 120, 200), -1)  # an arm of the ball's hue, a bit paler
+    cv2.circle(hsv, (350, 250), 20, (100, 220, 200), -1)  # the ball, touching it
+    table = np.zeros((H_BINS, S_BINS), np.uint8)
+    table[100 // HUE_STEP, 120 // SAT_STEP] = 140  # p 0.55: in the mask
+    table[100 // HUE_STEP, 220 // SAT_STEP] = 250
+    in_range = (hsv[:, :, 1] > 0).astype(np.uint8)
+    ev = CameraEvidence.from_mask(camera, in_range, ball=(R, 0.3, 5.0), colour_table=table, hsv=hsv)
+    assert len(ev.blobs) == 1  # arm and ball: one blob, no ball
+    seeds = ev.proposal_seeds()
+    assert len(seeds) == 1 and np.linalg.norm(seeds.centres[0] - (350, 250)) < 2 and 15 < seeds.radii[0] < 25

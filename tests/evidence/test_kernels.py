@@ -94,8 +94,42 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     expected = background.copy()
     cv2.accumulateWeighted(small, expected, 0.05, mask=learn * 255)
     moving = np.empty((60, 80), np.uint8)
-    evidence_kernels.background_step(image, background, learn, 0.05, 30.0, moving)
+    previous = cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)
+    calm = np.full((60, 80), 4, np.uint8)
+    evidence_kernels.background_step(image, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving)
+    assert np.array_equal(previous, small)  # the frame, kept for the next one
+    assert np.array_equal(calm, np.where(change > 30, 0, 5))  # frames in a row each cell has not changed
     assert 0.1 < expected_moving.mean() < 0.9
     assert np.array_equal(moving, expected_moving)
     assert np.allclose(background, expected, atol=1e-4)
     assert not np.allclose(background[learn == 1], cv2.resize(first, (80, 60), interpolation=cv2.INTER_AREA)[learn == 1])
+
+
+def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
+    """A ghost: the background holds a ball (p near 1) where a wall of its hue (p near 0.5) is now. The wall
+    differs from the background, but it is less the ball's colour than what it replaced: it is not moving
+    evidence. A ball that comes in front of the wall is."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.colour_model import H_BINS, HUE_STEP, S_BINS, SAT_STEP
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    wall, ball = (60, 120, 200), (60, 230, 200)
+    table = np.zeros((H_BINS, S_BINS), np.uint8)
+    table[60 // HUE_STEP, 120 // SAT_STEP], table[60 // HUE_STEP, 230 // SAT_STEP] = 130, 250
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = wall
+    cv2.circle(hsv, (400, 240), 15, ball, -1)  # the ball now; it was at (200, 240)
+    behind = np.zeros((240, 320, 3), np.uint8)
+    behind[:] = wall
+    cv2.circle(behind, (100, 120), 8, ball, -1)
+    foreground = np.zeros((240, 320), np.uint8)
+    cv2.circle(foreground, (100, 120), 8, 1, -1)
+    cv2.circle(foreground, (200, 120), 8, 1, -1)
+    in_range = np.ones((480, 640), np.uint8)
+    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind)
+    assert ev.moving[240, 400] == 1 and ev.moving[235:246, 395:406].all()  # the ball moved in
+    assert ev.moving[230:251, 190:211].sum() == 0  # its old place: the wall, no ghost
+    plain = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv)
+    assert plain.moving[235:246, 195:206].all()  # without the background's colours, the ghost moves

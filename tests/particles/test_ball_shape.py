@@ -94,3 +94,38 @@ def test_a_streak_scores_at_its_centre_as_a_ball_swept_along_it():
         assert at_centre > 0.5 * disc, (at_centre, disc)
         ray = BALL / np.linalg.norm(BALL)
         assert shape(np.array([BALL - 0.4 * ray]), views, None)[0] < 0.5 * at_centre
+
+
+def _moving(rig, masks):
+    """Evidence where everything of the colour moves: the moving map is the mask."""
+    from stereotrack.evidence.gather import CameraEvidence
+
+    return tuple(CameraEvidence.from_mask(c, m, foreground=np.ones_like(m)) for c, m in zip(rig.cameras, masks))
+
+
+def test_a_moving_ball_half_hidden_by_fingers_scores_high_and_the_edge_of_a_wall_does_not():
+    """A ball in a hand: fingers (not the ball's colour) cover the lower half of its disc. In the moving map the
+    upper half is a full half disc with clear surroundings, which is a ball; the straight edge of a thing of the
+    ball's colour also fills half the core, but it fills corners and ring too, and stays near the floor. In the
+    colour map alone a half disc is no ball (a curtain's stripes are half discs side by side)."""
+    rig = default_rig()
+    masks, _ = disc_masks(rig, BALL[None])
+    for cam, m in zip(rig.cameras, masks):
+        (u, v), z = cam.project(BALL[None])[0][0], cam.depth(BALL[None])[0]
+        r = cam.K[0, 0] * RADIUS / z
+        m[int(v) + 1 :, :] = 0  # the lower half hidden ...
+        for k in (-0.5, 0.0, 0.5):  # ... but for the gaps between three fingers
+            cv2.line(m, (int(u + k * r), int(v)), (int(u + k * r), int(v + 0.9 * r)), 1, 1)
+    shape = BallShape(RADIUS, 1 / 25)
+    assert shape(BALL[None], _moving(rig, masks), None)[0] > 0.3  # a whole disc scores about 1
+    assert shape(BALL[None], evidence(rig, masks), None)[0] < 0.15
+    wall = _wall_masks(rig)  # its left edge at x = 360 and its top edge at y = 60 in each image
+    views = _moving(rig, wall)
+    edge = []
+    for x in np.linspace(-0.1, 0.6, 36):  # points on the wall's edges at the ball's depth
+        for z in np.linspace(-0.6, 0.6, 61):
+            p = np.array([x, 1.5, z])
+            uv = [c.project(p[None])[0][0] for c in rig.cameras]
+            if all(abs(q[0] - 360) < 8 and 80 < q[1] < 400 or abs(q[1] - 60) < 8 and 380 < q[0] < 580 for q in uv):
+                edge.append(p)
+    assert len(edge) > 20 and shape(np.array(edge), views, None).max() < 0.05

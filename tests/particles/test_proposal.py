@@ -1,5 +1,6 @@
 import cv2
 import numpy as np
+import pytest
 from scene_helpers import RADIUS, default_rig, disc_masks, evidence
 
 from stereotrack.camera import Camera, intrinsics_from_fov, look_at
@@ -67,3 +68,53 @@ def test_ray_crossings_find_each_ball_and_skip_blobs_of_the_wrong_size():
     # The same three balls drawn five times too large (a poster, not a ball at that depth): no crossing.
     posters, _ = disc_masks(rig, balls, radius=5 * RADIUS)
     assert len(ray_crossings(evidence(rig, posters), RADIUS, 0.2, 5.0)) == 0
+
+
+def test_crossings_skip_the_blob_a_tracked_ball_holds_when_seeds_are_fewer_than_blobs(monkeypatch):
+    """The held flags go to the blobs the crossings are made from, not to the seeds (a subset of them when
+    only ball-like or moving blobs seed): a flag shifted onto another blob kept the tracked ball's crossing,
+    and the kernel read flags past the short array (garbage memory: runs of one recording differed)."""
+    from dataclasses import replace
+
+    from scene_helpers import balls_at
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import Seeds
+    from stereotrack.particles import proposal
+
+    rig = default_rig()
+    balls = np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1], [0.3, 2.2, 0.1]])
+    masks, _ = disc_masks(rig, balls)
+    views = []
+    for v in evidence(rig, masks):
+        assert len(v.blobs) == 3
+        first = int(np.argmin(v.blobs.centres[:, 1] * 1e4 + v.blobs.centres[:, 0]))  # leave out one blob: seeds are a subset
+        keep = np.arange(3) != first
+        views.append(replace(v, seeds=Seeds(v.blobs.centres[keep], v.blobs.radii[keep], v.origins[keep], v.directions[keep])))
+    # the tracked ball: one whose blob is a seed in both views
+    uv = [cam.project(balls)[0] for cam in rig.cameras]
+    seeded = [i for i in range(3) if all(np.linalg.norm(u[i] - v.seeds.centres, axis=1).min() < 1 for u, v in zip(uv, views))]
+    assert seeded
+    tracked = seeded[0]
+    made = []
+
+    def spy(*args, **kwargs):
+        made.append(ray_crossings(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(proposal, "ray_crossings", spy)
+    rp = proposal.RayProposal(TrackerSettings(), RADIUS)
+    rp(views, 400, balls_at(balls[tracked : tracked + 1]), np.random.default_rng(0))
+    crossings = made[-1]
+    assert np.linalg.norm(crossings - balls[tracked], axis=1).min(initial=np.inf) > 0.01  # the tracked ball's blobs make none
+    for i in range(3):
+        if i != tracked:  # every untracked ball's blobs still cross
+            assert np.linalg.norm(crossings - balls[i], axis=1).min() < 0.01
+
+
+def test_ray_crossings_refuse_skip_flags_that_are_not_one_per_blob():
+    rig = default_rig()
+    masks, _ = disc_masks(rig, np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1]]))
+    views = evidence(rig, masks)
+    with pytest.raises(ValueError, match="one flag per blob"):
+        ray_crossings(views, RADIUS, 0.2, 5.0, [np.zeros(1, bool), np.zeros(2, bool)])

@@ -55,6 +55,42 @@ def test_static_balls_at_06_12_20_m_within_a_centimetre():
         assert e.mean() < 0.01, f"ball at {depths[oid]:.1f} m: mean error {1000 * e.mean():.1f} mm"
 
 
+def test_hd_images_build_evidence_at_half_size_and_keep_centimetre_accuracy():
+    """At 1280x720 a ball spans many pixels: the evidence is built on a half-size grid (evidence_scale 0 =
+    automatic) with the camera on that grid, and static balls are still found within a centimetre."""
+    tracks, truth, results = run_scene("static_depths", 16, width=1280, height=720)
+    assert {m.shape for m in results[-1].masks.values()} == {(360, 640)}
+    errors = per_object_errors(tracks, truth, start=6)
+    for e in errors.values():
+        assert np.isfinite(e).all() and e.mean() < 0.01, e
+
+
+def test_the_evidence_grid_camera_sees_points_where_the_grid_picks_their_pixels():
+    """A point at full-size pixel u is at u / 2 on the grid of every other pixel, and that grid is those pixels."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.gather import every_nth, on_grid
+
+    cam = default_rig(1280, 720).cameras[0]
+    half = on_grid(cam, 2)
+    points = np.array([[0.1, 0.2, 1.5], [-0.3, 0.1, 2.5]])
+    assert half.image_size == (640, 360)
+    assert np.allclose(half.project(points)[0], cam.project(points)[0] / 2)
+    image = np.arange(720 * 1280 * 3, dtype=np.uint32).reshape(720, 1280, 3)
+    assert every_nth(image, 2).shape == (360, 640, 3) and (every_nth(image, 2)[5, 7] == image[10, 14]).all()
+    assert on_grid(cam, 1) is cam
+
+
+def test_small_or_far_balls_keep_every_pixel():
+    """The half-size grid only where even the smallest ball at d_max spans several pixels."""
+    spec = make_preset("pendulum4", n_frames=2, width=1280, height=720)
+    rig, config = SceneRenderer(spec).rig, spec.config()
+    assert Tracker(rig, config).scales == [2, 2]
+    far = config_from_dict({**config_to_dict(config), "tracker": {"d_max": 25.0}})
+    assert Tracker(rig, far).scales == [1, 1]
+    assert Tracker(SceneRenderer(make_preset("pendulum4", n_frames=2)).rig, config).scales == [1, 1]  # 640x480
+
+
 def test_pendulum4_detection_and_accuracy():
     """The tracker issue's targets, after the 3 frames a new track needs to be confirmed. The first 150
     frames hold balls merged into one blob in one view, in both views, and hidden behind another."""

@@ -284,8 +284,8 @@ def test_raw_images_masks_and_rays(tmp_path):
     result = FrameResult(
         result.frame, result.particles, result.objects, result.tracks, (Rays("green", "cam1", o, d, np.zeros((2, 2))),), result.masks
     )
-    kept = np.zeros_like(result.masks[("green", "cam1")])
-    kept[10:15, 30:40] = 1  # the observation model kept half of the range's pixels
+    kept = np.zeros((H // 2, W // 2), np.uint8)  # evidence built on a half-size grid (evidence_scale 2) ...
+    kept[5:8, 15:20] = 1  # ... where the observation model kept 60 of the range's 100 pixels
     result = replace(result, evidence={("green", "cam1"): kept})
     path = tmp_path / "raw.rrd"
     with RerunSink(
@@ -299,7 +299,7 @@ def test_raw_images_masks_and_rays(tmp_path):
     mask = latest(rows["world/cameras/cam1/mask"], "SegmentationImage:buffer", 0)[0]
     assert np.count_nonzero(mask) == 100 and set(mask) == {0, 2}  # class 2 = the second target, green
     after = latest(rows["world/cameras/cam1/evidence"], "SegmentationImage:buffer", 0)[0]
-    assert np.count_nonzero(after) == 50 and set(after) == {0, 2}
+    assert len(after) == W * H and np.count_nonzero(after) == 60 and set(after) == {0, 2}  # shown at the camera's pixels
     strips = np.array(latest(rows["world/rays/green/cam1"], "LineStrips3D:strips", 0))
     assert strips.shape == (2, 2, 3)
     np.testing.assert_allclose(strips[:, 0], cam.centre + 0.2 * d, atol=1e-5)  # from d_min ...

@@ -391,11 +391,11 @@ class RerunSink:
             if s.images and s.jpeg_quality == 0 and ci < len(result.frame.images):
                 rec.log(f"{path}/image", rr.Image(self._scaled(result.frame.images[ci], ci), color_model="BGR"))
             if s.masks:
-                self._log_mask(result, cam.name, path)
+                self._log_mask(result, cam.name, path, (cam.width, cam.height))
         if s.rays:
             self._log_rays(result)
 
-    def _log_mask(self, result: FrameResult, cam_name: str, path: str) -> None:
+    def _log_mask(self, result: FrameResult, cam_name: str, path: str, size: tuple[int, int]) -> None:
         """Two layers: ``mask``, the pixels in each target's HSV range (before), and ``evidence``, those the
         observation model counts (after: colour likelier on the ball than in the room, or moving)."""
         for entity, masks in (("mask", result.masks), ("evidence", result.evidence)):
@@ -408,6 +408,10 @@ class RerunSink:
                     label = np.zeros(mask.shape[:2], dtype=np.uint8)
                 label[mask > 0] = i + 1
             if label is not None:
+                if label.shape[::-1] != size:  # evidence built on a coarser grid (evidence_scale): shown at the camera's pixels
+                    import cv2
+
+                    label = cv2.resize(label, size, interpolation=cv2.INTER_NEAREST)
                 self.rec.log(f"{path}/{entity}", self.rr.SegmentationImage(label, opacity=0.5))
 
     def _follow_trails(self, result: FrameResult, now: float) -> None:
