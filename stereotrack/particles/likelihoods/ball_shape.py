@@ -71,7 +71,7 @@ def _streaks(blobs: Blobs) -> tuple:
     streak, its direction and its area (empty when the blob finder gives no labels or there is no streak)."""
     if blobs.labels is None or blobs.major is None or not len(blobs):
         return _NO_LABELS, _NO_BLOBS, 1, np.zeros(0, np.bool_), np.zeros((0, 2)), np.zeros(0)
-    is_streak = streaks(blobs.areas, blobs.axes)
+    is_streak = blobs.swept if blobs.swept is not None else streaks(blobs.areas, blobs.axes)  # as the blob finder judged it
     if not is_streak.any():
         return _NO_LABELS, _NO_BLOBS, 1, np.zeros(0, np.bool_), np.zeros((0, 2)), np.zeros(0)
     return blobs.labels, blobs.label_blob, blobs.label_scale, is_streak, blobs.major, blobs.areas.astype(float)
