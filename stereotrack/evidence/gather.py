@@ -79,6 +79,7 @@ class CameraEvidence:
         hsv: np.ndarray | None = None,
         background_hsv: np.ndarray | None = None,
         motion_range: np.ndarray | None = None,
+        streak_range: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -90,7 +91,9 @@ class CameraEvidence:
         ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
-        The blobs are those of the mask and the moving map together: what the likelihood counts is what
+        With a ``streak_range`` (0/1, colour.streak_range) and no motion range, the moving map takes it too, but its
+        pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
+        ball). The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
@@ -101,6 +104,8 @@ class CameraEvidence:
             moving = np.zeros_like(in_range) if foreground is not None else None
             sure = np.zeros_like(in_range) if colour_table is not None and ball is not None else None
             h, w = in_range.shape
+            streaky = streak_range is not None and motion_range is None and foreground is not None
+            motion_range = streak_range if streaky else motion_range
             own = motion_range is not None and foreground is not None
             rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
             evidence_maps(
@@ -121,6 +126,8 @@ class CameraEvidence:
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
+            if streaky:
+                _streaks_only(moving, in_range, min_blob_area)
             if moving is not None:
                 moving_integral = integral_image(moving)
         blobs = find_blobs(mask if moving is None else cv2.bitwise_or(mask, moving), blob_method, min_blob_area)
@@ -163,6 +170,29 @@ def _nearest(small: int, full: int) -> np.ndarray:
     """Which of ``small`` cells each of ``full`` pixels reads, as cv2.resize's INTER_NEAREST picks them."""
     index = np.minimum(np.floor(np.arange(full) * (small / full)).astype(np.intp), small - 1)
     return index
+
+
+def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int) -> None:
+    """Clears, in place, the moving pixels out of the range (in the streak range only) but in moving blobs shaped
+    like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
+    over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
+    moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames)."""
+    if not (moving > in_range).any():
+        return
+    blobs = find_blobs(moving, "components", min_blob_area)
+    ys, xs = np.nonzero(moving)
+    b = blobs.label_blob[blobs.labels[ys // blobs.label_scale, xs // blobs.label_scale]]
+    paler = in_range[ys, xs] == 0
+    counted = b >= 0
+    pale_share = np.bincount(b[counted & paler], minlength=len(blobs)) / np.maximum(np.bincount(b[counted], minlength=len(blobs)), 1)
+    streak = blobs.swept & (pale_share > 0.5) if len(blobs) else np.zeros(0, bool)
+    for k in np.flatnonzero(streak):  # and no more of the ball's colour around it: not the pale edge of a ball in range
+        grow = int(np.ceil(blobs.axes[k, 0]))  # its length again on every side
+        x0, y0, x1, y1 = (int(c) * blobs.label_scale for c in blobs.boxes[k])
+        around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
+        streak[k] = around < pale_share[k] * blobs.areas[k]
+    drop = paler & ~(counted & streak[np.maximum(b, 0)] if len(blobs) else np.zeros(len(b), bool))
+    moving[ys[drop], xs[drop]] = 0
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob

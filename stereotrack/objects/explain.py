@@ -298,6 +298,17 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swe
     return out
 
 
+def _agree(gap: np.ndarray, cov: np.ndarray, streak: bool, radius: float) -> float:
+    """How far the triangulated blobs may be from the particles' mean and still be the same ball: 3 radii, and for
+    streaks 3 standard deviations of the triangulation more (a far fast ball's particles judge a streak a ball wide
+    but as long as a fifth of its disparity along the epipolar lines, and their mean strays 0.3 m at 16 m; the
+    centroids triangulate to their half pixel: fast_ball tune seed 9)."""
+    if not streak:
+        return 3.0 * radius
+    u = gap / max(float(np.linalg.norm(gap)), 1e-9)
+    return 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
+
+
 def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
@@ -317,8 +328,9 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
         px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
         points, covs = triangulate_with_covariance([cameras[j] for j in good], px, CENTROID_SIGMA_PX)
+        streak = all(swept[j][blob_ids[idx, j]].all() for j in good)
         for i, point, cov in zip(idx, points, covs):
-            if np.linalg.norm(point - merged[i].position) <= 3 * settings.radius:  # else the blobs disagree with the particles
+            if np.linalg.norm(point - merged[i].position) <= _agree(point - merged[i].position, cov, streak, settings.radius):
                 out[i] = replace(merged[i], position=point, covariance=cov)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:

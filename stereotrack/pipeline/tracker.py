@@ -180,6 +180,7 @@ class Tracker:
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds else None,
                 cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
+                cm.streak_ranges.get(t.name) if cm.streak_ranges else None,
             )
             for t in self.config.targets
         }
