@@ -89,3 +89,16 @@ def test_a_ball_merged_with_scenery_of_its_hue_still_seeds_where_its_colour_is_s
     assert len(ev.blobs) == 1  # arm and ball: one blob, no ball
     seeds = ev.proposal_seeds()
     assert len(seeds) == 1 and np.linalg.norm(seeds.centres[0] - (350, 250)) < 2 and 15 < seeds.radii[0] < 25
+
+
+def test_a_small_ball_touching_a_bigger_one_is_not_a_streak():
+    """Long and filled like a streak, no gap at its centroid (which lies inside the bigger ball), but narrow where
+    the two touch: as wide all along is what a streak is (pendulum4: a far ball behind a near one)."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.circle(m, (300, 200), 9, 1, -1)
+    cv2.circle(m, (321, 200), 12, 1, -1)
+    streak = np.zeros_like(m)
+    cv2.line(streak, (200, 300), (260, 300), 1, 12)  # a streak 12 px wide drawn the same way
+    b, s = find_blobs(m), find_blobs(streak)
+    assert len(b) == 1 and b.ball_radii()[0] > 20  # the pair's size, not a streak's width
+    assert len(s) == 1 and s.ball_radii()[0] < 8
