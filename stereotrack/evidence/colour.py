@@ -48,6 +48,7 @@ class CameraMasks:
     integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32 (empty when not asked for)
     hsv: np.ndarray | None = None  # the frame in HSV, for colour models
     motion_ranges: dict[str, np.ndarray] | None = None  # target name -> where its moving part may lie, if not its range (motion_range)
+    streak_ranges: dict[str, np.ndarray] | None = None  # target name -> where a streak of it may lie (streak_range), coloured targets
 
 
 def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...], integrals: bool = True) -> CameraMasks:
@@ -55,7 +56,8 @@ def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...]
     hsv = to_hsv(image_bgr)
     masks = {t.name: target_mask(hsv, t) for t in targets}
     motion = {t.name: target_mask(hsv, motion_range(t)) for t in targets if t.any_hue}
-    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv, motion)
+    streak = {t.name: target_mask(hsv, streak_range(t)) for t in targets if not t.any_hue}
+    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv, motion, streak)
 
 
 def motion_range(target: Target) -> Target:
@@ -65,6 +67,21 @@ def motion_range(target: Target) -> Target:
     if not target.any_hue:
         return target
     return Target(target.name, (0, target.hsv_min[1], 0), (179, target.hsv_max[1], target.hsv_max[2]), target.radius)
+
+
+STREAK_SATURATION = 0.4  # a streak's saturation may fall to this share of the typed minimum ...
+STREAK_HUE = 10  # ... and its hue this far out of the typed range
+
+
+def streak_range(target: Target) -> Target:
+    """Where a fast ball's streak's pixels may lie: a pixel it sweeps over sees the ball only part of the exposure,
+    so its colour is the ball's mixed with the background's, paler and of a hue pulled towards the room's (fast_ball
+    tune seeds: saturation 34-71 against a typed minimum of 74-83, hue up to 5 outside the range). Only moving
+    pixels, in blobs shaped like a streak, may take it (CameraEvidence.from_mask): a pale thing of the hue is none."""
+    (h0, s0, v0), (h1, s1, v1) = target.hsv_min, target.hsv_max
+    span = (h1 - h0) % 180 + 2 * STREAK_HUE
+    lo, hi = (0, 179) if span >= 179 else ((h0 - STREAK_HUE) % 180, (h1 + STREAK_HUE) % 180)
+    return Target(target.name, (lo, int(STREAK_SATURATION * s0), int(0.5 * v0)), (hi, s1, v1), target.radius)
 
 
 # --------------------------------------------------------------------------- learning

@@ -29,6 +29,7 @@ class Seeds:
     origins: np.ndarray  # M x 3
     directions: np.ndarray  # M x 3 unit
     moved: np.ndarray | None = None  # M bool: the blob is (about) a blob of the moving map (None: none is)
+    widths: np.ndarray | None = None  # M apparent radii of the one ball each would be (Blobs.ball_radii); None: radii
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -58,7 +59,9 @@ class CameraEvidence:
 
     def proposal_seeds(self) -> Seeds:
         """The seeds, or every blob of the mask when none were chosen."""
-        return self.seeds if self.seeds is not None else Seeds(self.blobs.centres, self.blobs.radii, self.origins, self.directions)
+        if self.seeds is not None:
+            return self.seeds
+        return Seeds(self.blobs.centres, self.blobs.radii, self.origins, self.directions, widths=self.blobs.ball_radii())
 
     @property
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -78,6 +81,7 @@ class CameraEvidence:
         hsv: np.ndarray | None = None,
         background_hsv: np.ndarray | None = None,
         motion_range: np.ndarray | None = None,
+        streak_range: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -89,7 +93,9 @@ class CameraEvidence:
         ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
-        The blobs are those of the mask and the moving map together: what the likelihood counts is what
+        With a ``streak_range`` (0/1, colour.streak_range) and no motion range, the moving map takes it too, but its
+        pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
+        ball). The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
@@ -100,6 +106,8 @@ class CameraEvidence:
             moving = np.zeros_like(in_range) if foreground is not None else None
             sure = np.zeros_like(in_range) if colour_table is not None and ball is not None else None
             h, w = in_range.shape
+            streaky = streak_range is not None and motion_range is None and foreground is not None
+            motion_range = streak_range if streaky else motion_range
             own = motion_range is not None and foreground is not None
             rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
             evidence_maps(
@@ -120,6 +128,8 @@ class CameraEvidence:
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
+            if streaky:
+                _streaks_only(moving, in_range, min_blob_area)
             if moving is not None:
                 moving_integral = integral_image(moving)
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
@@ -165,6 +175,29 @@ def _nearest(small: int, full: int) -> np.ndarray:
     return index
 
 
+def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int) -> None:
+    """Clears, in place, the moving pixels out of the range (in the streak range only) but in moving blobs shaped
+    like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
+    over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
+    moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames)."""
+    if not (moving > in_range).any():
+        return
+    blobs = find_blobs(moving, "components", min_blob_area)
+    ys, xs = np.nonzero(moving)
+    b = blobs.label_blob[blobs.labels[ys // blobs.label_scale, xs // blobs.label_scale]]
+    paler = in_range[ys, xs] == 0
+    counted = b >= 0
+    pale_share = np.bincount(b[counted & paler], minlength=len(blobs)) / np.maximum(np.bincount(b[counted], minlength=len(blobs)), 1)
+    streak = blobs.swept & (pale_share > 0.5) if len(blobs) else np.zeros(0, bool)
+    for k in np.flatnonzero(streak):  # and no more of the ball's colour around it: not the pale edge of a ball in range
+        grow = int(np.ceil(blobs.axes[k, 0]))  # its length again on every side
+        x0, y0, x1, y1 = (int(c) * blobs.label_scale for c in blobs.boxes[k])
+        around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
+        streak[k] = around < pale_share[k] * blobs.areas[k]
+    drop = paler & ~(counted & streak[np.maximum(b, 0)] if len(blobs) else np.zeros(len(b), bool))
+    moving[ys[drop], xs[drop]] = 0
+
+
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
 # p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
 # or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
@@ -179,12 +212,14 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
     moved = [np.zeros(int(keep.sum()), bool)]
+    widths = [blobs.ball_radii()[keep]]
 
     def take(more: Blobs, new: np.ndarray, moving: bool) -> None:
         if new.any():
             mo, md = camera.rays(more.centres[new])
             centres.append(more.centres[new])
             radii.append(more.radii[new])
+            widths.append(more.ball_radii()[new])
             o.append(mo)
             d.append(md)
             moved.append(np.full(int(new.sum()), moving))
@@ -211,5 +246,6 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
         np.concatenate(radii),
         np.vstack(o).reshape(-1, 3),
         np.vstack(d).reshape(-1, 3),
-        np.concatenate(moved),
+        moved=np.concatenate(moved),
+        widths=np.concatenate(widths),
     )

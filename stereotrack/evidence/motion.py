@@ -87,7 +87,17 @@ class BackgroundModel:
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
         calm_moving = background_step(
-            halved(image) if image_halved is None else image_halved, self._background, self._previous, self._calm, learn, gain, rate, self.threshold, moving, self.behind, ABSORB_FRAMES
+            halved(image) if image_halved is None else image_halved,
+            self._background,
+            self._previous,
+            self._calm,
+            learn,
+            gain,
+            rate,
+            self.threshold,
+            moving,
+            self.behind,
+            ABSORB_FRAMES,
         )
         self._frames += 1
         if calm_moving >= MIN_GHOST_CELLS:

@@ -257,6 +257,97 @@ def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound, halves)
     return max(whole * clear, shown * clear * clear)
 
 
+@kernel(inline="always")
+def _squares(integral, u, v, ax, ay, bx, by, half, n_steps, scale):
+    """Share set of ``n_steps`` small squares (half-side ``half``) evenly from (u + a) to (u + b), ends included."""
+    c_sum, a_sum = 0.0, 0.0
+    for k in range(n_steps):
+        w = k / (n_steps - 1) if n_steps > 1 else 0.5
+        c, a = _box_count(integral, u + ax + w * (bx - ax), v + ay + w * (by - ay), half)
+        c_sum += c
+        a_sum += a
+    return c_sum / (a_sum * scale) if a_sum > 0.0 else 0.0
+
+
+@kernel(inline="always")
+def _capsule(integral, u, v, r, length, ex, ey, core, scale):
+    """How much a ball of apparent radius ``r`` swept ``length`` pixels either way along the unit vector (ex, ey) during
+    the exposure (a capsule centred on (u, v), the ball's mean position) is what this map shows: ``core`` (the share set
+    inside the disc's core square, which the caller has) x the sides of the capsule, across it (at its middle and
+    halfway to its ends: no waist) and inside its round ends, full x the corners beyond its ends empty x the ring
+    around it, on its second-emptiest side of four (across it on
+    either side, beyond either end), empty. The disc's test (``_centre_surround``) is this with no length."""
+    nx, ny = -ey, ex  # across the streak
+    half = max(0.12 * r, 0.5)
+    d, e = 0.85 * r, length + 0.5 * r  # the ends' squares well inside the round ends: the length comes from the area, to a pixel or two
+    ends = 0.5 * (
+        _squares(integral, u, v, e * ex, e * ey, e * ex, e * ey, half, 1, scale)
+        + _squares(integral, u, v, -e * ex, -e * ey, -e * ex, -e * ey, half, 1, scale)
+    )
+    # Its straight sides, at its middle and halfway to either end, each full: two balls side by side (a blob as long
+    # and as filled) have a waist at their middle, where these are empty.
+    sides = 1.0
+    for k in range(3):
+        w = 0.5 * (k - 1) * length
+        share = 0.5 * (
+            _squares(integral, u, v, d * nx + w * ex, d * ny + w * ey, d * nx + w * ex, d * ny + w * ey, half, 1, scale)
+            + _squares(integral, u, v, -d * nx + w * ex, -d * ny + w * ey, -d * nx + w * ex, -d * ny + w * ey, half, 1, scale)
+        )
+        sides = min(sides, share)
+    sides *= ends
+    e = length + 0.85 * r  # the corners beyond the round ends, 1.2 r from their centres
+    corners = 0.25 * (
+        _squares(integral, u, v, e * ex + d * nx, e * ey + d * ny, e * ex + d * nx, e * ey + d * ny, half, 1, scale)
+        + _squares(integral, u, v, e * ex - d * nx, e * ey - d * ny, e * ex - d * nx, e * ey - d * ny, half, 1, scale)
+        + _squares(integral, u, v, -e * ex + d * nx, -e * ey + d * ny, -e * ex + d * nx, -e * ey + d * ny, half, 1, scale)
+        + _squares(integral, u, v, -e * ex - d * nx, -e * ey - d * ny, -e * ex - d * nx, -e * ey - d * ny, half, 1, scale)
+    )
+    ring_half = max(0.3 * r, 0.5)  # squares 0.6 r wide, centred 1.5 r out: the ring of the disc's test, sampled
+    g, far = 1.5 * r, length + 1.5 * r
+    steps = 3 + int(2.0 * length / max(2.0 * ring_half, 1.0))  # squares along the streak's sides, about touching
+    ring, second = 1.0, 1.0
+    for k in range(4):
+        if k == 0:
+            share = _squares(
+                integral,
+                u,
+                v,
+                g * nx - length * ex,
+                g * ny - length * ey,
+                g * nx + length * ex,
+                g * ny + length * ey,
+                ring_half,
+                steps,
+                scale,
+            )
+        elif k == 1:
+            share = _squares(
+                integral,
+                u,
+                v,
+                -g * nx - length * ex,
+                -g * ny - length * ey,
+                -g * nx + length * ex,
+                -g * ny + length * ey,
+                ring_half,
+                steps,
+                scale,
+            )
+        elif k == 2:
+            share = _squares(
+                integral, u, v, far * ex - g * nx, far * ey - g * ny, far * ex + g * nx, far * ey + g * ny, ring_half, 3, scale
+            )
+        else:
+            share = _squares(
+                integral, u, v, -far * ex - g * nx, -far * ey - g * ny, -far * ex + g * nx, -far * ey + g * ny, ring_half, 3, scale
+            )
+        if share < ring:
+            ring, second = share, ring
+        elif share < second:
+            second = share
+    return core * sides * (1.0 - corners) * (1.0 - second)
+
+
 @kernel
 def ball_shape_likelihood(
     out,
@@ -278,6 +369,12 @@ def ball_shape_likelihood(
     eye,
     occ_centres,
     occ_radii,
+    labels,
+    label_blob,
+    label_scale,
+    streak,
+    streak_major,
+    streak_area,
 ):
     """Multiply ``out`` (N) by one camera's ball-shape factor for every particle: at the particle's depth the
     ball spans r = f R / z pixels; its core should be full of evidence and the ring around it empty, in the
@@ -304,4 +401,14 @@ def ball_shape_likelihood(
         best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor, False), floor)
         if use_moving:
             best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0, best, True))
+        if streak.shape[0]:  # on a streak (a blob of the mask that is one): also a ball swept along it
+            b = label_blob[labels[min(int(v) // label_scale, labels.shape[0] - 1), min(int(u) // label_scale, labels.shape[1] - 1)]]
+            if b >= 0 and streak[b]:
+                length = (streak_area[b] - math.pi * r * r) / (4.0 * r)  # a capsule's area is pi r^2 + 4 r length
+                if length > 0.25 * r:
+                    swept, scale = (moving, 1.0) if use_moving else (colour, colour_scale)  # a streak moves: on the moving map if any
+                    c, a = _box_count(swept, u, v, max(inner * r, 0.5))
+                    core = c / (a * scale) if a > 0.0 else 0.0
+                    if core > best:
+                        best = max(best, _capsule(swept, u, v, r, length, streak_major[b, 0], streak_major[b, 1], core, scale))
         out[i] *= best

@@ -77,10 +77,10 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     out = [
         crossing_points(
             *a.rays,
-            a.blobs.radii,
+            a.blobs.ball_radii(),
             use[j],
             *b.rays,
-            b.blobs.radii,
+            b.blobs.ball_radii(),
             use[k],
             a.camera.R,
             a.camera.t,
@@ -148,13 +148,24 @@ class RayProposal:
         s = self.settings
         origins, dirs, near, far, moved = [], [], [], [], []
         seeds = [v.proposal_seeds() for v in views]
-        for v, b in zip(views, seeds):
+        # How many tracked balls of this colour project into each blob: a held blob's ball has its particles (no
+        # crossings there), and two balls overlapping look like one ball's streak (their size is the larger side's,
+        # not the streak's width).
+        holders = None
+        if mine is not None and len(mine):
+            holders = []
+            for v, b in zip(views, seeds):
+                uv, ok = v.camera.project(mine.centres)
+                d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
+                holders.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).sum(axis=0))
+        for j, (v, b) in enumerate(zip(views, seeds)):
             if len(b) == 0:
                 continue
             if s.depth_from_size:
-                lo, hi = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max)
+                size = b.radii if b.widths is None else np.where(holders[j] > 1, b.radii, b.widths) if holders is not None else b.widths
+                lo, hi = depth_range_from_size(v.camera, size, self.radius, s.d_min, s.d_max)
                 if self.moving_first and b.moved is not None and b.moved.any():  # a moving blob's size says less: see MOVING_SLACK
-                    wide = depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max, MOVING_SLACK)
+                    wide = depth_range_from_size(v.camera, size, self.radius, s.d_min, s.d_max, MOVING_SLACK)
                     lo, hi = np.where(b.moved, wide[0], lo), np.where(b.moved, wide[1], hi)
             else:
                 lo, hi = np.full(len(b), s.d_min), np.full(len(b), s.d_max)

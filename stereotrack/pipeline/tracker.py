@@ -183,6 +183,7 @@ class Tracker:
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
+                cm.streak_ranges.get(t.name) if cm.streak_ranges else None,
             )
             for t in self.config.targets
         }

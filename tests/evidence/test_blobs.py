@@ -44,6 +44,30 @@ def test_walls_rings_and_specks_fail():
     assert not blob_of(lambda m: cv2.rectangle(m, (300, 200), (302, 202), 1, -1))  # a speck: narrower than a ball at 5 m
 
 
+def test_a_streak_is_as_wide_as_its_ball_and_a_ball_cut_by_the_edge_keeps_its_size():
+    """The apparent radius that sets a blob's depth range and its ray crossings: a streak's is its half width (half its
+    length would put a fast ball at half its depth); a ball cut in half by the image's edge keeps half its longer side."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.line(m, (200, 200), (320, 240), 1, 16)  # a ball of radius 8 px smeared over 126 px
+    cv2.circle(m, (0, 400), 10, 1, -1)  # half a ball of radius 10 px at the left edge
+    cv2.circle(m, (500, 100), 9, 1, -1)  # a whole ball
+    b = find_blobs(m)
+    order = np.argsort(b.centres[:, 0])
+    edge, streak, ball = b.ball_radii()[order]
+    assert 7.5 < streak < 10.0 and 9.5 <= edge <= 11.0 and 8.5 <= ball <= 10.0
+    assert abs(abs(b.major[order[1]] @ np.array([120.0, 40.0]) / np.hypot(120, 40)) - 1) < 0.01  # along the streak
+
+
+def test_two_balls_side_by_side_are_not_a_streak():
+    """As long and as filled as a streak, but narrow at the middle: each ball's size, not a streak's width (a crossing
+    of two rays through the pair's centroid would put a ghost between them)."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.circle(m, (300, 200), 12, 1, -1)
+    cv2.circle(m, (323, 205), 12, 1, -1)
+    b = find_blobs(m)
+    assert len(b) == 1 and b.ball_radii()[0] > 20
+
+
 def test_a_ball_merged_with_scenery_of_its_hue_still_seeds_where_its_colour_is_sure():
     """A ball held by an arm, or touching a prop or a wall of its hue: the mask (p > 0.5) makes one blob of both,
     which is no ball. Where p(ball | colour) is near 1 (the ball, not the arm at about 0.55) the ball is a blob
@@ -107,3 +131,16 @@ def test_seeds_say_which_blobs_move():
     assert len(seeds) == 2 and seeds.moved is not None
     moving = np.linalg.norm(seeds.centres - (200, 200), axis=1) < 3
     assert moving.sum() == 1 and seeds.moved[moving].all() and not seeds.moved[~moving].any()
+
+
+def test_a_small_ball_touching_a_bigger_one_is_not_a_streak():
+    """Long and filled like a streak, no gap at its centroid (which lies inside the bigger ball), but narrow where
+    the two touch: as wide all along is what a streak is (pendulum4: a far ball behind a near one)."""
+    m = np.zeros((480, 640), np.uint8)
+    cv2.circle(m, (300, 200), 9, 1, -1)
+    cv2.circle(m, (321, 200), 12, 1, -1)
+    streak = np.zeros_like(m)
+    cv2.line(streak, (200, 300), (260, 300), 1, 12)  # a streak 12 px wide drawn the same way
+    b, s = find_blobs(m), find_blobs(streak)
+    assert len(b) == 1 and b.ball_radii()[0] > 20  # the pair's size, not a streak's width
+    assert len(s) == 1 and s.ball_radii()[0] < 8

@@ -68,6 +68,34 @@ def test_a_square_patch_the_size_of_the_ball_scores_less_than_the_disc():
     assert shape(BALL[None], evidence(rig, squares), None)[0] < 0.2 * shape(BALL[None], evidence(rig, discs), None)[0]
 
 
+def _streak_masks(rig, centre, velocity, radius=RADIUS):
+    """Per camera: the mask of a ball swept from centre - velocity to centre + velocity (metres) during the exposure."""
+    masks = []
+    for cam in rig.cameras:
+        m = np.zeros((cam.height, cam.width), np.uint8)
+        ends = np.array([centre - velocity, centre + velocity])
+        (a, b), r = cam.project(ends)[0], cam.K[0, 0] * radius / cam.depth(centre[None])[0]
+        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(2 * r)), cv2.LINE_8, 4)
+        masks.append(m)
+    return masks
+
+
+def test_a_streak_scores_at_its_centre_as_a_ball_swept_along_it():
+    """A fast ball is a capsule in the image, long but a ball wide: at its centre (the ball's mean position during the
+    exposure) and depth it scores as a ball would; a disc test alone scores its filled corners near the floor. A nearer
+    depth (a bigger disc, wider than the streak) scores less."""
+    rig = default_rig()
+    shape = BallShape(RADIUS, 1 / 25)
+    disc = shape(BALL[None], evidence(rig, disc_masks(rig, BALL[None])[0]), None)[0]
+    for velocity in (np.array([0.12, 0.0, 0.0]), np.array([0.09, 0.0, 0.07])):  # along the image's rows, and slanted
+        views = evidence(rig, _streak_masks(rig, BALL, velocity))
+        assert all(v.blobs.ball_radii()[0] < 1.3 * rig.cameras[0].K[0, 0] * RADIUS / 1.5 for v in views)  # its width, not its length
+        at_centre = shape(BALL[None], views, None)[0]
+        assert at_centre > 0.5 * disc, (at_centre, disc)
+        ray = BALL / np.linalg.norm(BALL)
+        assert shape(np.array([BALL - 0.4 * ray]), views, None)[0] < 0.5 * at_centre
+
+
 def _moving(rig, masks):
     """Evidence where everything of the colour moves: the moving map is the mask."""
     from stereotrack.evidence.gather import CameraEvidence

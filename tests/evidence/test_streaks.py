@@ -1,0 +1,59 @@
+"""A fast ball's streak: its colour, mixed with the background it swept over, is paler than the typed range."""
+
+import cv2
+import numpy as np
+from scene_helpers import RADIUS, default_rig
+
+from stereotrack.config import Target
+from stereotrack.evidence.colour import camera_masks, streak_range
+from stereotrack.evidence.gather import CameraEvidence
+from stereotrack.evidence.motion import BackgroundModel
+
+PALE_BLUE = cv2.cvtColor(np.uint8([[[108, 60, 170]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()  # saturation 60 < the range's 80
+BLUE = cv2.cvtColor(np.uint8([[[118, 200, 170]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
+
+
+def _moving_view(draw):
+    """The moving evidence of a blue target on a grey wall after 20 calm frames, with ``draw`` painted in the last."""
+    cam = default_rig().cameras[0]
+    blue = Target("blue", (108, 80, 80), (128, 255, 255), RADIUS)
+    bg = BackgroundModel(cam, rate=0.05, threshold=30)
+    rng = np.random.default_rng(7)
+
+    def wall():
+        return np.clip(np.full((cam.height, cam.width, 3), 200.0) + rng.normal(0, 2, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
+
+    for _ in range(20):
+        bg.update(wall())
+    image = wall()
+    draw(image)
+    fg = bg.update(image)
+    cm = camera_masks(cam.name, image, (blue,), integrals=False)
+    view = CameraEvidence.from_mask(cam, cm.masks["blue"], foreground=fg, streak_range=cm.streak_ranges["blue"])
+    return cm, view
+
+
+def test_a_pale_moving_streak_is_evidence_and_a_pale_moving_disc_or_rim_is_not():
+    """A far fast ball (saturation 60 against a typed 80): no pixel in range, but moving and shaped like a streak, so
+    the moving map holds it and it seeds particles at its width's depth. A pale moving disc is no streak, and a pale
+    streak-shaped sliver beside a ball in range is that ball's edge: neither enters."""
+    cm, view = _moving_view(lambda img: cv2.line(img, (200, 240), (236, 246), PALE_BLUE, 6))
+    assert cm.masks["blue"].sum() == 0
+    assert view.moving[243, 218] == 1 and view.moving.sum() > 150
+    assert len(view.seeds) == 1 and abs(view.seeds.widths[0] - 3) < 1.5  # its width, not its length
+    _, disc = _moving_view(lambda img: cv2.circle(img, (218, 243), 9, PALE_BLUE, -1))
+    assert disc.moving.sum() == 0
+
+    def ball_and_sliver(img):
+        cv2.circle(img, (300, 240), 14, BLUE, -1)
+        cv2.line(img, (320, 226), (320, 254), PALE_BLUE, 4)
+
+    _, rim = _moving_view(ball_and_sliver)
+    assert rim.moving[240, 320] == 0 and rim.moving[240, 300] == 1
+
+
+def test_the_streak_range_widens_hue_and_saturation_and_wraps_around_red():
+    red = streak_range(Target("red", (172, 100, 90), (8, 255, 255), RADIUS))
+    assert red.hsv_min == (162, 40, 45) and red.hsv_max == (18, 255, 255) and red.wraps
+    wide = streak_range(Target("any", (10, 90, 90), (175, 255, 255), RADIUS))
+    assert wide.hsv_min[0] == 0 and wide.hsv_max[0] == 179
