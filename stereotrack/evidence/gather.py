@@ -180,22 +180,26 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int) 
     like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
     moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames)."""
-    if not (moving > in_range).any():
+    pale = cv2.subtract(moving, in_range)  # the moving pixels out of the range (both maps 0/1)
+    if not cv2.countNonZero(pale):
         return
     blobs = find_blobs(moving, "components", min_blob_area)
-    ys, xs = np.nonzero(moving)
-    b = blobs.label_blob[blobs.labels[ys // blobs.label_scale, xs // blobs.label_scale]]
-    paler = in_range[ys, xs] == 0
-    counted = b >= 0
-    pale_share = np.bincount(b[counted & paler], minlength=len(blobs)) / np.maximum(np.bincount(b[counted], minlength=len(blobs)), 1)
-    streak = blobs.swept & (pale_share > 0.5) if len(blobs) else np.zeros(0, bool)
-    for k in np.flatnonzero(streak):  # and no more of the ball's colour around it: not the pale edge of a ball in range
-        grow = int(np.ceil(blobs.axes[k, 0]))  # its length again on every side
-        x0, y0, x1, y1 = (int(c) * blobs.label_scale for c in blobs.boxes[k])
+    s = blobs.label_scale
+    keep = np.zeros_like(pale)
+    for k in np.flatnonzero(blobs.swept) if len(blobs) else ():  # only streak-shaped blobs keep pale pixels: look in their boxes
+        x0, y0, x1, y1 = (int(c) * s for c in blobs.boxes[k])
+        ys, xs = np.nonzero(moving[y0:y1, x0:x1])
+        mine = blobs.label_blob[blobs.labels[(ys + y0) // s, (xs + x0) // s]] == k
+        ys, xs = ys[mine] + y0, xs[mine] + x0
+        paler = in_range[ys, xs] == 0
+        pale_share = paler.sum() / max(len(ys), 1)
+        if pale_share <= 0.5:
+            continue
+        grow = int(np.ceil(blobs.axes[k, 0]))  # and no more of the ball's colour around it (its length again on every side)
         around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
-        streak[k] = around < pale_share[k] * blobs.areas[k]
-    drop = paler & ~(counted & streak[np.maximum(b, 0)] if len(blobs) else np.zeros(len(b), bool))
-    moving[ys[drop], xs[drop]] = 0
+        if around < pale_share * blobs.areas[k]:
+            keep[ys[paler], xs[paler]] = 1
+    np.subtract(moving, cv2.subtract(pale, keep), out=moving)
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
