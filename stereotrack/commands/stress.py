@@ -259,24 +259,33 @@ def render_cached(spec, folder: Path) -> bool:
 
     MJPG (CODEC), like a webcam's stream. A half-written
     rendering never takes the folder's place: it is written beside it and renamed when complete (a run
-    killed mid-way leaves it hidden beside the folder, and the next run removes it).
+    killed mid-way leaves it hidden beside the folder, and the next run removes it). Two runs sharing a cache may
+    render one new scene at once: the one that finishes second keeps the first's folder, which that run may be
+    tracking already (renamed aside, its tracks file had nowhere to go).
     """
     from ..errors import StereotrackError
     from ..recording import open_recording
     from ..simulation.write import render_scene
 
     key = scene_key(spec)
-    stamp = folder / "scene.key"
-    if stamp.is_file() and stamp.read_text().strip() == key:
-        try:
-            if open_recording(folder).n_frames == spec.n_frames:
-                return False
-        except StereotrackError:
-            pass
+
+    def complete() -> bool:
+        stamp = folder / "scene.key"
+        if stamp.is_file() and stamp.read_text().strip() == key:
+            try:
+                return open_recording(folder).n_frames == spec.n_frames
+            except StereotrackError:
+                pass
+        return False
+
+    if complete():
+        return False
     tmp = folder.with_name(f".{folder.name}.partial-{os.getpid()}")
     try:
         render_scene(spec, tmp, progress=False, codec=CODEC)
         (tmp / "scene.key").write_text(key + "\n")
+        if complete():  # another run sharing the cache put the same scene there meanwhile, and may be tracking it: keep it
+            return True
         old = folder.with_name(f".{folder.name}.partial-old-{os.getpid()}")
         if folder.exists():  # renamed aside, not deleted in place: a run killed here leaves no half-deleted scene
             os.replace(folder, old)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from stereotrack.cli import main as cli_main
-from stereotrack.commands.stress import Job, markdown_table, scene_key, summarise
+from stereotrack.commands.stress import Job, markdown_table, render_cached, scene_key, summarise
 from stereotrack.files import read_section, replace_section
 from stereotrack.simulation.stress import CATEGORIES
 
@@ -56,6 +56,30 @@ def test_the_command_scores_every_category_then_reuses_its_work(tmp_path, capsys
     assert [p.stat().st_mtime_ns for p in scores] == stamps
     job = Job("hands", 0, str(tmp_path / "cache"), frames=6, scale=0.25)
     assert (job.folder / "truth.csv").is_file() and (job.folder / "scene.key").read_text().strip() == scene_key(job.spec())
+
+
+def test_a_scene_another_run_rendered_meanwhile_is_kept(tmp_path, monkeypatch):
+    """Two runs sharing a cache may render the same new scene at once: the one that finishes second keeps the first's
+    folder (the first may be writing its tracks there), instead of renaming it aside under the other's feet."""
+    from stereotrack.simulation import write
+
+    job = Job("hands", 0, str(tmp_path / "cache"), frames=3, scale=0.15)
+    spec = job.spec()
+    render = write.render_scene
+    other_run = []
+
+    def render_while_another_run_finishes(spec, folder, **kw):
+        render(spec, folder, **kw)
+        if not other_run and folder.parent == job.folder.parent:  # the other run's folder lands while this one renders this scene
+            other_run.append(True)
+            render(spec, job.folder, **kw)
+            (job.folder / "scene.key").write_text(scene_key(spec) + "\n")
+            (job.folder / "tracks_particles.csv").write_text("written by the other run\n")
+
+    monkeypatch.setattr(write, "render_scene", render_while_another_run_finishes)
+    assert render_cached(spec, job.folder)
+    assert (job.folder / "tracks_particles.csv").read_text() == "written by the other run\n"
+    assert not list(job.folder.parent.glob(".*partial*"))  # this run's own rendering is removed
 
 
 def test_docs_take_only_the_report_set_and_bad_arguments_are_one_line(tmp_path, capsys):
