@@ -100,6 +100,13 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
+def _holders(camera, centres: np.ndarray, radii: np.ndarray, mine: TrackedBalls) -> np.ndarray:
+    """Per blob (``centres``, ``radii``): how many of the tracked balls ``mine`` project into it (HELD_MIN_PX)."""
+    uv, ok = camera.project(mine.centres)
+    d = np.linalg.norm(uv[:, None] - centres[None], axis=2)
+    return (ok[:, None] & (d < np.maximum(radii[None], HELD_MIN_PX))).sum(axis=0)
+
+
 def _still(view: CameraEvidence) -> np.ndarray:
     """Per blob of the view: no pixel of its box moves (the moving map's summed-area table)."""
     b, ii = view.blobs, view.moving_integral
@@ -153,11 +160,7 @@ class RayProposal:
         # not the streak's width).
         holders = None
         if mine is not None and len(mine):
-            holders = []
-            for v, b in zip(views, seeds):
-                uv, ok = v.camera.project(mine.centres)
-                d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
-                holders.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).sum(axis=0))
+            holders = [_holders(v.camera, b.centres, b.radii, mine) for v, b in zip(views, seeds)]
         for j, (v, b) in enumerate(zip(views, seeds)):
             if len(b) == 0:
                 continue
@@ -184,12 +187,7 @@ class RayProposal:
             held = None
             if mine is not None and len(mine):
                 # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
-                held = []
-                for v in views:
-                    b = v.blobs
-                    uv, ok = v.camera.project(mine.centres)
-                    d = np.linalg.norm(uv[:, None] - b.centres[None], axis=2)
-                    held.append((ok[:, None] & (d < np.maximum(b.radii[None], HELD_MIN_PX))).any(axis=0))
+                held = [_holders(v.camera, v.blobs.centres, v.blobs.radii, mine) > 0 for v in views]
             if self.moving_first and all(v.moving_integral is not None for v in views):
                 # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                 still = [_still(v) for v in views]
