@@ -40,7 +40,7 @@ from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
-from .discs import RayFit, depth_on_ray, union_mismatch
+from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
 from .kernels import blob_signature
 
 
@@ -64,10 +64,15 @@ CENTROID_SIGMA_PX = 0.5  # blob centroid noise of a shaded, sensor-noisy ball, p
 ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean
 DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
 DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
+ROUND_FILL = 0.7  # a blob fills at least this share of the disc its larger side spans, or it is a ball seen in part
+PARTIAL_DEPTHS = (0.75, 1.35)  # a partly seen view's fit searches these multiples of the particles' depth ...
+PARTIAL_PRIOR = 0.15  # ... under a prior this wide, as a share of that depth
+PARTIAL_TOLERANCE = 0.01  # pixels of its mismatch that make a depth e times less likely, as a share of the disc's area
 
 
 _NO_LABELS, _NO_LABEL_BLOB = np.zeros((1, 1), np.int32), np.full(1, -1)
 _DEPTH_STEPS = np.linspace(0.0, 1.0, 41)  # the disc fit's candidate depths, spread over its search range
+_PARTIAL_STEPS = np.linspace(0.0, 1.0, 121)  # the partial-view fit's: a step of 0.5 % of the depth, a pixel of disparity at 2 m
 
 
 def _merge(objs: Sequence[Object3D]) -> Object3D:
@@ -130,7 +135,7 @@ def explain(
     part of a ball behind them. Returns (kept objects, index of the kept
     object each input object went into, or -1 if it was dropped).
     """
-    cameras, blobs, rays = [v.camera for v in views], [v.blobs for v in views], [v.rays for v in views]
+    cameras, blobs = [v.camera for v in views], [v.blobs for v in views]
     predicted = predicted.centres if predicted is not None else None
     occluders = (occluders.centres, occluders.radii) if occluders is not None else None
     into = np.full(len(objects), -1)
@@ -172,7 +177,7 @@ def explain(
     if settings.refine:
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
         swept = _swept(views, predicted, settings.radius)
-        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept)
+        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, views, settings, predicted, swept)
     return out, into
 
 
@@ -226,20 +231,34 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
     return out
 
 
-def _clean_views(
-    i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings
-):
-    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size and not cut by a nearer
-    ball of another colour, [(camera, mates)] where it shares its blob)."""
+def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, whole: np.ndarray):
+    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size, round and full (``whole``) and
+    not cut by a nearer ball of another colour, [(camera, mates)] where it shares its blob, cameras where it has a
+    blob of its own that is not clean: a ball seen in part, or merged with something of its colour)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
-    good = [
-        j
-        for j in range(blob_ids.shape[1])
-        # unseen, clipped or occluded in a camera: not clean there
-        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < REFINE_TOLERANCE and not hidden[n, j]
-    ]
-    return good, shared
+    own = [j for j in range(blob_ids.shape[1]) if j not in in_shared and blob_ids[i, j] >= 0 and not hidden[n, j]]
+    # unseen, clipped or occluded in a camera: not clean there
+    good = [j for j in own if abs(log_ratio[i, j]) < REFINE_TOLERANCE and whole[i, j]]
+    return good, shared, [j for j in own if j not in good]
+
+
+def _whole(blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
+    """Per object and camera: its blob there fills the disc its larger side spans (ROUND_FILL), or is a streak while
+    no other camera sees the ball round. A ball cut by something in front of it, or by the image's edge, keeps its
+    extent across the cut and so looks ball-sized, but its centroid lies up to half a radius off the ball's centre
+    (static_props tune seed 0: a pole splits a ball in one view, 0.2 m of depth error); a half disc is long enough
+    to pass for a streak, but a fast ball is a streak in every view."""
+    fill = np.zeros(blob_ids.shape)
+    streak = np.zeros(blob_ids.shape, bool)
+    for j, b in enumerate(blobs):
+        on = blob_ids[:, j] >= 0
+        ids = blob_ids[on, j]
+        fill[on, j] = b.areas[ids] / (np.pi * np.maximum(b.radii[ids], 0.5) ** 2)
+        streak[on, j] = swept[j][ids]
+    full = fill >= ROUND_FILL
+    round_somewhere = (full & ~streak & (blob_ids >= 0)).any(axis=1)
+    return (blob_ids < 0) | full | (streak & ~round_somewhere[:, None])
 
 
 STREAK_THINNING = math.log(2.0)  # a streak may be down to half its ball's width in range: ...
@@ -309,7 +328,7 @@ def _agree(gap: np.ndarray, cov: np.ndarray, streak: bool, radius: float) -> flo
     return 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
 
 
-def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept) -> list[Object3D]:
+def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, predicted, swept) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
     Balls with two or more clean views are triangulated together (one call per set of cameras); a
@@ -317,8 +336,10 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
     then placed against the other balls' discs there, one ball at a time, each against the latest
     positions of the others.
     """
+    cameras, blobs, rays = [v.camera for v in evidence], [v.blobs for v in evidence], [v.rays for v in evidence]
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
-    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, settings) for n, i in enumerate(kept)}
+    whole = _whole(blob_ids, blobs, swept)
+    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}
     for i in kept:
@@ -334,17 +355,21 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
                 out[i] = replace(merged[i], position=point, covariance=cov)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:
-        out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted)
+        out[i] = _one_view(
+            merged[i], i, *views[i][:2], blob_ids, cameras, blobs, rays, settings, predicted, partial=views[i][2], evidence=evidence
+        )
     if settings.disc_fit:
         positions = {i: o.position for i, o in out.items()}
         for i in one_view:
             if views[i][1]:
-                out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted, positions)
+                out[i] = _one_view(merged[i], i, *views[i][:2], blob_ids, cameras, blobs, rays, settings, predicted, positions)
                 positions[i] = out[i].position
     return [out[i] for i in kept]
 
 
-def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None) -> Object3D:
+def _one_view(
+    obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None, partial=(), evidence=None
+) -> Object3D:
     """One clean view: its ray fixes the direction, the particles (or the shared blobs) the distance along it.
 
     The covariance says so (tight across the ray, the depth's uncertainty
@@ -366,6 +391,10 @@ def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, pr
     # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
     # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
     fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
+    if not shared and partial and evidence is not None:
+        # The other views see the ball only in part: the particles' depth is pulled to where their smaller discs on
+        # the visible parts put it. The disc that holds what shows of the ball, and nothing around it, says where.
+        fit = _fit_partial_views(o, d, own, [evidence[k] for k in partial], settings.radius)
     if fit is not None:
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
@@ -392,3 +421,22 @@ def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, s
         z = float(cameras[j].depth((o + depth * d)[None])[0])
         area += np.pi * cameras[j].apparent_radius(settings.radius, max(z, 0.05)) ** 2
     return depth_on_ray(mismatch, depths, depth, np.sqrt(along), DISC_FIT_TOLERANCE * area)
+
+
+def _fit_partial_views(o, d, depth, views: Sequence[CameraEvidence], radius: float) -> RayFit | None:
+    """Depth along a clean view's ray at which the ball's disc in the ``views`` that see it in part holds their
+    evidence there and little else (discs.partial_mismatch); None when they show too little of a ball there, or
+    something beside it."""
+    depths = depth * (PARTIAL_DEPTHS[0] + (PARTIAL_DEPTHS[1] - PARTIAL_DEPTHS[0]) * _PARTIAL_STEPS)
+    candidates = o + depths[:, None] * d
+    mismatch, around, inside, area = (np.zeros(len(depths)) for _ in range(4))
+    for v in views:
+        m, a, h = partial_mismatch(v, candidates, radius)
+        mismatch += m
+        around += a
+        inside += h
+        area += np.pi * v.camera.apparent_radius(radius, np.maximum(v.camera.depth(candidates), 0.05)) ** 2
+    best = int(np.argmin(mismatch))
+    if not np.isfinite(mismatch[best]) or inside[best] < PARTIAL_LEAST_SEEN * area[best] or around[best] > PARTIAL_MOST_AROUND * area[best]:
+        return None
+    return depth_on_ray(mismatch, depths, depth, PARTIAL_PRIOR * depth, PARTIAL_TOLERANCE * area[len(depths) // 2])
