@@ -24,8 +24,13 @@ is compared with a ball of the known radius at the object's depth:
   discs best make up the shared blob (discs.py; the particles' mean is
   biased towards the other ball). Where the shared blob says little (a ball
   wholly hidden behind a nearer one) and the particles spread wide along the
-  ray, the ball's track decides. Otherwise (occlusion in every view) it keeps
-  the particle mean.
+  ray, the ball's track decides. A blob that does not fill the disc its
+  larger side spans is a ball seen in part (something in front of it, the
+  image's edge) and not clean either; with one clean view, the depth is
+  where the ball's disc in the partial view holds every part that shows
+  (discs.partial_mismatch: the particles' mean is biased towards the
+  largest visible part). Otherwise (occlusion in every view) it keeps the
+  particle mean.
 """
 
 from __future__ import annotations
@@ -235,7 +240,8 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
 def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, whole: np.ndarray):
     """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size, round and full (``whole``) and
     not cut by a nearer ball of another colour, [(camera, mates)] where it shares its blob, cameras where it has a
-    blob of its own that is not clean: a ball seen in part, or merged with something of its colour)."""
+    blob of its own that is not clean: a ball seen in part, or merged with something of its colour, whose moving
+    part the partial-view fit reads)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
     own = [j for j in range(blob_ids.shape[1]) if j not in in_shared and blob_ids[i, j] >= 0 and not hidden[n, j]]
