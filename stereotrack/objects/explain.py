@@ -69,6 +69,8 @@ CENTROID_SIGMA_PX = 0.5  # blob centroid noise of a shaded, sensor-noisy ball, p
 ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean
 DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
 DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
+STREAK_LONGER = math.log(1.2)  # a blob longer than its ball by this (log of half its larger side / the ball's radius) is a smear
+ROUND_MIN_PX = 6.0  # ... judged on blobs this wide or wider (fast_ball tune seed 2: balls of 2-5 pixels fill 0.4-0.8)
 ROUND_FILL = 0.7  # a blob fills at least this share of the disc its larger side spans, or it is a ball seen in part
 PARTIAL_DEPTHS = (0.75, 1.35)  # a partly seen view's fit searches these multiples of the particles' depth ...
 PARTIAL_PRIOR = 0.15  # ... under a prior this wide, as a share of that depth
@@ -250,22 +252,19 @@ def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_rati
     return good, shared, [j for j in own if j not in good]
 
 
-def _whole(blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
-    """Per object and camera: its blob there fills the disc its larger side spans (ROUND_FILL), or is a streak while
-    no other camera sees the ball round. A ball cut by something in front of it, or by the image's edge, keeps its
-    extent across the cut and so looks ball-sized, but its centroid lies up to half a radius off the ball's centre
-    (static_props tune seed 0: a pole splits a ball in one view, 0.2 m of depth error); a half disc is long enough
-    to pass for a streak, but a fast ball is a streak in every view."""
-    fill = np.zeros(blob_ids.shape)
-    streak = np.zeros(blob_ids.shape, bool)
+def _whole(blob_ids: np.ndarray, blobs, log_ratio: np.ndarray) -> np.ndarray:
+    """Per object and camera: its blob there fills the disc its larger side spans (ROUND_FILL), or is longer than the
+    ball (a smear: a fast ball's streak, blurred). A ball cut by something in front of it, or by the image's edge,
+    keeps its extent across the cut and so looks ball-sized, but its centroid lies up to half a radius off the
+    ball's centre (static_props tune seed 0: a pole splits a ball in one view, 0.2 m of depth error); it is never
+    longer than the ball (``log_ratio``: the blob's larger side against the ball's size at the object's depth)."""
+    fill = np.ones(blob_ids.shape)
     for j, b in enumerate(blobs):
         on = blob_ids[:, j] >= 0
         ids = blob_ids[on, j]
         fill[on, j] = b.areas[ids] / (np.pi * np.maximum(b.radii[ids], 0.5) ** 2)
-        streak[on, j] = swept[j][ids]
-    full = fill >= ROUND_FILL
-    round_somewhere = (full & ~streak & (blob_ids >= 0)).any(axis=1)
-    return (blob_ids < 0) | full | (streak & ~round_somewhere[:, None])
+        fill[on, j] = np.where(b.radii[ids] >= ROUND_MIN_PX, fill[on, j], 1.0)  # a few pixels' share says nothing
+    return (fill >= ROUND_FILL) | (np.nan_to_num(log_ratio) > STREAK_LONGER)
 
 
 STREAK_THINNING = math.log(2.0)  # a streak may be down to half its ball's width in range: ...
@@ -344,9 +343,14 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
     positions of the others.
     """
     cameras, blobs, rays = [v.camera for v in evidence], [v.blobs for v in evidence], [v.rays for v in evidence]
+    whole = _whole(blob_ids, blobs, log_ratio)  # before streaks are measured by their width
+    smeared = whole & (np.nan_to_num(log_ratio) > STREAK_LONGER)
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
-    whole = _whole(blob_ids, blobs, swept)
     views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
+    # A ball longer than itself in some view is fast (a streak, blurred), not hidden: its disc would hold none of its
+    # views (fast_ball tune seed 7 fell 0.534 -> -0.155 with the partial-view fit on its streaks).
+    fast = [i for i in kept if smeared[i].any()]
+    views.update({i: (*views[i][:2], []) for i in fast})
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}
     for i in kept:
