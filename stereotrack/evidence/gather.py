@@ -15,8 +15,9 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..config import Target
 from .blobs import Blobs, ball_like, find_blobs
-from .colour import integral_image
+from .colour import integral_image, range_bounds
 from .kernels import evidence_maps
 
 
@@ -80,8 +81,8 @@ class CameraEvidence:
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
         background_hsv: np.ndarray | None = None,
-        motion_range: np.ndarray | None = None,
-        streak_range: np.ndarray | None = None,
+        motion_range: Target | None = None,
+        streak_range: Target | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -90,10 +91,10 @@ class CameraEvidence:
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
         kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
-        ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
+        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
-        With a ``streak_range`` (0/1, colour.streak_range) and no motion range, the moving map takes it too, but its
+        With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
         ball). The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
@@ -110,15 +111,16 @@ class CameraEvidence:
             motion_range = streak_range if streaky else motion_range
             own = motion_range is not None and foreground is not None
             rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
+            fg_rows = _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX
             evidence_maps(
                 in_range,
-                np.maximum(rows, motion_range.max(axis=1)) if own else rows,
-                hsv if colour_table is not None else _NO_HSV,
+                np.maximum(rows, foreground.max(axis=1)[fg_rows]) if own else rows,  # own range: the moving rows too
+                hsv if colour_table is not None or own else _NO_HSV,
                 colour_table if colour_table is not None else _NO_TABLE,
                 foreground if foreground is not None else _NO_TABLE,
-                _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX,
+                fg_rows,
                 _nearest(foreground.shape[1], w) if foreground is not None else _NO_INDEX,
-                motion_range if own else _NO_TABLE,
+                range_bounds(motion_range) if own else _NO_BOUNDS,
                 soft,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
@@ -166,6 +168,7 @@ def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
 _NO_TABLE = np.zeros((0, 0), np.uint8)
 _NO_INDEX = np.zeros(0, np.intp)
+_NO_BOUNDS = np.zeros(0, np.int64)
 
 
 @lru_cache(maxsize=16)
