@@ -238,12 +238,17 @@ def test_still_patches_are_absorbed_as_labelling_every_patch_gives():
         assert trial % 2 or still.any()
 
 
-def test_the_subsampled_mask_is_numpys_strided_copy():
+def test_the_subsampled_mask_is_numpys_strided_copy_and_skips_the_rows_said_empty():
     rng = np.random.default_rng(16)
+    every = np.zeros(0, np.uint8)
     for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
         mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
-        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale)
+        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale, every)
         assert np.array_equal(small, mask[::scale, ::scale])
         ys, xs = np.nonzero(small)
         assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
-    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2)[1:] == (0, 0, 0, 0)
+        rows = (rng.random(h) < 0.5).astype(np.uint8)  # rows marked 0 are not read: they come out empty
+        masked = mask * rows[:, None]
+        small, *box = evidence_kernels.subsampled(mask, scale, rows)
+        assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[1:]
+    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)[1:] == (0, 0, 0, 0)
