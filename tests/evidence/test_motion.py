@@ -106,7 +106,7 @@ def test_a_white_ball_moving_on_a_white_wall_is_a_whole_disc_in_the_moving_map_a
     hue), so the ball's whole disc is there; and its blob is one explain-away looks up (the colour mask, after
     the colour model, may hold nothing of it)."""
     from stereotrack.config import Target
-    from stereotrack.evidence.colour import camera_masks
+    from stereotrack.evidence.colour import camera_masks, motion_range
     from stereotrack.evidence.gather import CameraEvidence
 
     cam = default_rig().cameras[0]
@@ -127,7 +127,7 @@ def test_a_white_ball_moving_on_a_white_wall_is_a_whole_disc_in_the_moving_map_a
     fg = bg.update(image)
     cm = camera_masks(cam.name, image, (white,), integrals=False)
     empty = np.zeros_like(cm.masks["white"])  # what the colour model leaves of a white wall's range
-    view = CameraEvidence.from_mask(cam, empty, foreground=fg, motion_range=cm.motion_ranges["white"])
+    view = CameraEvidence.from_mask(cam, empty, foreground=fg, motion_range=motion_range(white), hsv=cm.hsv)
     yy, xx = np.mgrid[: cam.height, : cam.width]
     disc = (xx - 310) ** 2 + (yy - 200) ** 2 <= 12**2
     assert view.moving[disc].mean() > 0.9  # the grey half too
