@@ -66,8 +66,9 @@ class Tracker:
         smallest = min(t.radius for t in config.targets)
         self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
+        white = frozenset(t.name for t in config.targets if t.any_hue)  # their kept-out discs are checked for ghosts
         self.backgrounds = (
-            [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
+            [BackgroundModel(cam, s.background_rate, s.foreground_threshold, white) for cam in self.evidence_cameras] if s.motion else None
         )
         # Where each target's moving map may take pixels out of its range: a white ball's shaded side, a fast ball's streak
         self.moving_ranges = {t.name: (motion_range(t), None) if t.any_hue else (None, streak_range(t)) for t in config.targets}
