@@ -392,8 +392,9 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
         points, covs = triangulate_with_covariance([cameras[j] for j in good], px, CENTROID_SIGMA_PX, spread)
         origin = cameras[good[0]].centre
         for i, point, cov in zip(idx, points, covs):
-            if _agree(point, merged[i], cov, _slack(list(good), blob_ids[i], blobs, swept), settings.radius, origin):
-                out[i] = replace(merged[i], position=point, covariance=cov)
+            slack = _slack(list(good), blob_ids[i], blobs, swept)
+            if _agree(point, merged[i], cov, slack, settings.radius, origin):
+                out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:
         out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted)
