@@ -65,7 +65,7 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarra
     inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
     swept = streaks(areas, axes) & inside
-    swept[swept] = ~_uneven(mask, centres[swept], major[swept], axes[swept])
+    swept[swept] = ~uneven(mask, centres[swept], major[swept], axes[swept])
     widths = np.where(swept, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
     return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2), widths, swept)
 
@@ -117,7 +117,7 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     return Blobs(cand.astype(float), count.astype(float), radii)
 
 
-def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
+def uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """Per blob: is it wider in some places than others along its major axis, as two balls side by side or one
     partly behind another are (a streak is as wide all along its straight part)? Counts the mask's pixels across
     the blob at 7 places within 0.6 semi-major axes of its centroid (within 1.2 semi-minor axes of the axis):
