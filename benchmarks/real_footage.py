@@ -90,13 +90,16 @@ def model_evidence(hsv_min, hsv_max, min_area: int = 6, radius: float = 0.035, f
     """The observation model's 2D evidence (issue 14): the range sharpened by a colour model learnt against the
     room, its moving part from a background model, and only blobs that could be a ball seed particles (the
     seeds are the blobs returned). The videos have no calibration: a webcam's 60-degree field of view and a
-    ball of ``radius`` metres at 0.2-5 m stand in, as `stereotrack.config`'s defaults would."""
+    ball of ``radius`` metres at 0.2-5 m stand in, as `stereotrack.config`'s defaults would. The evidence is built
+    on the grid the tracker would build it on (tracker.evidence_scale, automatic: every other pixel of ball4.mp4's
+    1280x720), and its blobs are returned in the video's pixels."""
     from stereotrack.camera import Camera, intrinsics_from_fov
     from stereotrack.config import Target, TrackerSettings
     from stereotrack.evidence.colour import target_mask, to_hsv
     from stereotrack.evidence.colour_model import ColourModel
-    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.evidence.gather import CameraEvidence, every_nth, on_grid
     from stereotrack.evidence.motion import BackgroundModel
+    from stereotrack.pipeline.tracker import evidence_scale
 
     target = Target("ball", tuple(hsv_min), tuple(hsv_max), radius)
     s = TrackerSettings()
@@ -107,19 +110,23 @@ def model_evidence(hsv_min, hsv_max, min_area: int = 6, radius: float = 0.035, f
         def evidence(image: np.ndarray) -> Blobs2D:
             if not state:
                 h, w = image.shape[:2]
-                cam = Camera("cam0", (w, h), intrinsics_from_fov(w, h, fov_deg), np.zeros(5), np.eye(3), np.zeros(3))
-                state.update(camera=cam, background=BackgroundModel(cam, s.background_rate, s.foreground_threshold))
+                full = Camera("cam0", (w, h), intrinsics_from_fov(w, h, fov_deg), np.zeros(5), np.eye(3), np.zeros(3))
+                k = evidence_scale(s, full, radius)
+                cam = on_grid(full, k)
+                state.update(camera=cam, scale=k, background=BackgroundModel(cam, s.background_rate, s.foreground_threshold))
                 state["colour"] = ColourModel.for_target(target)
+            k = state["scale"]
+            image = every_nth(image, k)
             hsv = to_hsv(image)
             mask = target_mask(hsv, target)
             table = state["colour"].table(hsv)
             state["colour"].learn(hsv, mask)  # no tracks here: the room's colours only
             ev = CameraEvidence.from_mask(
-                state["camera"], mask, None, "components", min_area, state["background"].update(image),
+                state["camera"], mask, None, "components", max(1, round(min_area / (k * k))), state["background"].update(image),
                 (radius, s.d_min, s.d_max), table, hsv,
             )  # fmt: skip
             seeds = ev.proposal_seeds()
-            return seeds.centres, seeds.radii
+            return seeds.centres * k, seeds.radii * k  # the video's pixels, as the tracker shows its rays
 
         return evidence
 

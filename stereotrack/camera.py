@@ -228,12 +228,14 @@ def triangulate_points(cameras: Sequence[Camera], pixels: Sequence[np.ndarray]) 
 
 
 def triangulate_with_covariance(
-    cameras: Sequence[Camera], pixels: Sequence[np.ndarray], pixel_sigma: float
+    cameras: Sequence[Camera], pixels: Sequence[np.ndarray], pixel_sigma: float, pixel_covs: Sequence[np.ndarray] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """``triangulate_points`` plus each point's covariance for isotropic pixel noise ``pixel_sigma``:
     sigma^2 J J', J (3 x 4) the derivative of the first two cameras' triangulation with respect to
     their four pixel coordinates, by central differences. It grows along the viewing direction with
-    depth / baseline, as it should. Returns (points M x 3, covariances M x 3 x 3)."""
+    depth / baseline, as it should. ``pixel_covs`` (the first two cameras' M x 2 x 2, pixels^2) replace sigma^2 I
+    where the noise is not the same in every direction (a streak's centroid along it). Returns (points M x 3,
+    covariances M x 3 x 3)."""
     m = len(pixels[0])
     if m == 0:
         return np.zeros((0, 3)), np.zeros((0, 3, 3))
@@ -248,7 +250,11 @@ def triangulate_with_covariance(
         points, moved_points = triangulate_points(cameras, pixels), triangulate_points(cameras[:2], moved)
     moved_points = moved_points.reshape(8, m, 3)
     J = ((moved_points[:4] - moved_points[4:]) / (2 * h)).transpose(1, 2, 0)  # m x 3 x 4
-    return points, pixel_sigma**2 * J @ J.transpose(0, 2, 1)
+    if pixel_covs is None:
+        return points, pixel_sigma**2 * J @ J.transpose(0, 2, 1)
+    S = np.zeros((m, 4, 4))
+    S[:, :2, :2], S[:, 2:, 2:] = pixel_covs[0], pixel_covs[1]
+    return points, J @ S @ J.transpose(0, 2, 1)
 
 
 def look_at(eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, -1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

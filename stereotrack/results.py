@@ -36,6 +36,7 @@ class Object3D:
     covariance: np.ndarray  # 3 x 3, weighted particle covariance
     mass: float  # share of the target's particle weight in this cluster
     n_particles: int
+    swept: bool = False  # placed at a fast ball's streaks triangulated in two or more cameras (objects/explain.py)
 
 
 @dataclass(frozen=True, eq=False)

@@ -138,3 +138,23 @@ def test_rig_views_and_apparent_radius_agree_with_each_camera():
         assert np.allclose(uv[c][f], u[f]) and np.array_equal(front[c], f)
         r = cam.apparent_radius(0.035, depth[c])
         assert np.allclose(r[f], cam.focal_px * 0.035 / cam.depth(pts)[f])
+
+
+def test_a_centroid_uncertain_along_the_baseline_makes_the_triangulated_depth_uncertain_and_not_across():
+    """Per-camera pixel covariances: sigma^2 I gives the isotropic figure; a centroid 4 pixels uncertain along the
+    image's x (a streak along the epipolar lines) and half a pixel across makes the depth several times as uncertain,
+    and the height (across it) no more so than before."""
+    from stereotrack.camera import triangulate_with_covariance
+
+    rig = make_rig()
+    point = np.array([[0.05, 0.02, 2.0]])
+    px = [cam.project(point)[0] for cam in rig.cameras]
+    p0, iso = triangulate_with_covariance(rig.cameras, px, 0.5)
+    same = [np.repeat((0.25 * np.eye(2))[None], 1, axis=0)] * 2
+    p1, cov = triangulate_with_covariance(rig.cameras, px, 0.5, same)
+    assert np.allclose(p0, p1) and np.allclose(iso, cov)
+    along_x = [np.array([[[16.0, 0.0], [0.0, 0.25]]])] * 2
+    _, streak = triangulate_with_covariance(rig.cameras, px, 0.5, along_x)
+    ray = point[0] / np.linalg.norm(point[0])
+    assert ray @ streak[0] @ ray > 20 * (ray @ iso[0] @ ray)
+    assert streak[0][1, 1] < 1.5 * iso[0][1, 1]  # the height (the image's y: across the streak) keeps its figure

@@ -92,3 +92,30 @@ def test_labels_match_the_real_videos():
         cap = cv2.VideoCapture(str(videos / video))
         assert (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))) == (w, h)
         assert cap.get(cv2.CAP_PROP_FRAME_COUNT) > max(lab.frame for lab in rf.load_labels() if lab.video == video)
+
+
+@pytest.mark.parametrize("size, grid", [((640, 480), (480, 640)), ((1280, 720), (360, 640))])
+def test_the_observation_model_is_built_on_the_trackers_grid_and_answers_in_the_videos_pixels(monkeypatch, size, grid):
+    """At 1280x720 the tracker builds its evidence on every other pixel (tracker.evidence_scale): so does the benchmark,
+    and the ball's seed is still where the ball is in the video."""
+    from stereotrack.evidence.gather import CameraEvidence
+
+    shapes = []
+    build = CameraEvidence.from_mask.__func__
+
+    def recording(cls, camera, mask, *args, **kwargs):
+        shapes.append(mask.shape)
+        return build(cls, camera, mask, *args, **kwargs)
+
+    monkeypatch.setattr(CameraEvidence, "from_mask", classmethod(recording))
+    evidence = rf.model_evidence((50, 100, 100), (70, 255, 255))()
+    w, h = size
+    for i in range(12):  # a green ball crossing a grey wall (the background learns the wall first)
+        img = np.full((h, w, 3), 170, np.uint8)
+        x, y = w // 4 + 12 * i, h // 2
+        cv2.circle(img, (x, y), 30, (60, 200, 60), -1)
+        centres, radii = evidence(img)
+    assert set(shapes) == {grid}
+    assert len(centres) >= 1
+    near = np.hypot(centres[:, 0] - x, centres[:, 1] - y) < 3
+    assert near.any() and 25 <= radii[near].max() <= 35

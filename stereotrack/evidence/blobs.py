@@ -42,10 +42,10 @@ class Blobs:
         return len(self.centres)
 
 
-def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
+def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarray | None = None) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
-    small, x0, y0, x1, y1 = subsampled(mask, scale)
+    small, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)
     # Labels only: OpenCV's per-component statistics cost several times the labelling itself. Labelled inside the
     # box of the set pixels (most of a mask is empty), from an even corner: OpenCV labels 2 x 2 blocks in raster
     # order, so the labels are those of the whole mask.
@@ -65,7 +65,7 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2) -> Blobs:
     inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
     swept = streaks(areas, axes) & inside
-    swept[swept] = ~_uneven(mask, centres[swept], major[swept], axes[swept])
+    swept[swept] = ~uneven(mask, centres[swept], major[swept], axes[swept])
     widths = np.where(swept, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
     return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2), widths, swept)
 
@@ -117,7 +117,7 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     return Blobs(cand.astype(float), count.astype(float), radii)
 
 
-def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
+def uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """Per blob: is it wider in some places than others along its major axis, as two balls side by side or one
     partly behind another are (a streak is as wide all along its straight part)? Counts the mask's pixels across
     the blob at 7 places within 0.6 semi-major axes of its centroid (within 1.2 semi-minor axes of the axis):
@@ -135,10 +135,14 @@ def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.n
     return (narrowest < 0.7 * widest) & (widest - narrowest > 3.0)  # the moving map's 2-pixel cells step a thin streak's sides
 
 
-def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6) -> Blobs:
-    """Colour blobs of a 0/1 mask: ``components`` or the paper's ``histogram`` maxima."""
+_EVERY_ROW = np.zeros(0, np.uint8)
+
+
+def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6, rows: np.ndarray | None = None) -> Blobs:
+    """Colour blobs of a 0/1 mask: ``components`` or the paper's ``histogram`` maxima. ``rows`` (uint8, one per
+    mask row): 0 where the caller knows the row is empty (gather.py: most rows hold nothing of a few balls), not read."""
     if method == "components":
-        return _components(mask, min_area)
+        return _components(mask, min_area, rows=rows)
     if method == "histogram":
         return _histogram(mask, min_area)
     raise ValueError(f"unknown blob method {method!r}")

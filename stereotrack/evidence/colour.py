@@ -7,6 +7,7 @@ counts mask pixels in any window in O(1) from the integral image.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -46,18 +47,23 @@ class CameraMasks:
     camera: str
     masks: dict[str, np.ndarray]  # target name -> uint8 0/1 mask
     integrals: dict[str, np.ndarray]  # target name -> (H+1) x (W+1) int32 (empty when not asked for)
-    hsv: np.ndarray | None = None  # the frame in HSV, for colour models
-    motion_ranges: dict[str, np.ndarray] | None = None  # target name -> where its moving part may lie, if not its range (motion_range)
-    streak_ranges: dict[str, np.ndarray] | None = None  # target name -> where a streak of it may lie (streak_range), coloured targets
+    hsv: np.ndarray | None = None  # the frame in HSV, for colour models and the moving maps' own ranges (motion_range, streak_range)
 
 
 def camera_masks(camera: str, image_bgr: np.ndarray, targets: tuple[Target, ...], integrals: bool = True) -> CameraMasks:
-    """HSV conversion once, then one mask and (unless ``integrals`` is False) one integral image per target."""
+    """HSV conversion once, then one mask and (unless ``integrals`` is False) one integral image per target. The
+    moving maps' ranges (``motion_range``, ``streak_range``) are read from the HSV only where something moves
+    (evidence/gather.py): a whole-image mask of each cost as much as the range's own."""
     hsv = to_hsv(image_bgr)
     masks = {t.name: target_mask(hsv, t) for t in targets}
-    motion = {t.name: target_mask(hsv, motion_range(t)) for t in targets if t.any_hue}
-    streak = {t.name: target_mask(hsv, streak_range(t)) for t in targets if not t.any_hue}
-    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv, motion, streak)
+    return CameraMasks(camera, masks, {name: integral_image(m) for name, m in masks.items()} if integrals else {}, hsv)
+
+
+@lru_cache(maxsize=64)
+def range_bounds(target: Target) -> np.ndarray:
+    """The target's range as the compiled passes read it (evidence/kernels.py): h0, s0, v0, h1, s1, v1, and 1
+    where the hue wraps around red (one array per range, made once: not to be written)."""
+    return np.array([*target.hsv_min, *target.hsv_max, int(target.wraps)], np.int64)
 
 
 def motion_range(target: Target) -> Target:

@@ -15,8 +15,9 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..config import Target
 from .blobs import Blobs, ball_like, find_blobs
-from .colour import integral_image
+from .colour import integral_image, range_bounds
 from .kernels import evidence_maps
 
 
@@ -80,8 +81,8 @@ class CameraEvidence:
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
         background_hsv: np.ndarray | None = None,
-        motion_range: np.ndarray | None = None,
-        streak_range: np.ndarray | None = None,
+        motion_range: Target | None = None,
+        streak_range: Target | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -90,54 +91,56 @@ class CameraEvidence:
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
         kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
-        ``motion_range`` (0/1) where given (colour.motion_range: a white ball's shaded side); with the background
+        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
-        With a ``streak_range`` (0/1, colour.streak_range) and no motion range, the moving map takes it too, but its
+        With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
         ball). The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
-        soft_integral = moving = moving_integral = sure = None
+        soft_integral = moving = moving_integral = soft = rows = None
         if colour_table is not None or foreground is not None:
-            soft = np.zeros_like(in_range) if colour_table is not None else _NO_TABLE
+            soft = np.zeros_like(in_range) if colour_table is not None else None
             mask = np.zeros_like(in_range) if colour_table is not None else in_range
             moving = np.zeros_like(in_range) if foreground is not None else None
-            sure = np.zeros_like(in_range) if colour_table is not None and ball is not None else None
             h, w = in_range.shape
             streaky = streak_range is not None and motion_range is None and foreground is not None
             motion_range = streak_range if streaky else motion_range
             own = motion_range is not None and foreground is not None
             rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
+            fg_rows = _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX
+            if own:  # the moving rows too; no map has a pixel outside these rows
+                rows = np.maximum(rows, foreground.max(axis=1)[fg_rows])
             evidence_maps(
                 in_range,
-                np.maximum(rows, motion_range.max(axis=1)) if own else rows,
-                hsv if colour_table is not None else _NO_HSV,
+                rows,
+                hsv if colour_table is not None or own else _NO_HSV,
                 colour_table if colour_table is not None else _NO_TABLE,
                 foreground if foreground is not None else _NO_TABLE,
-                _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX,
+                fg_rows,
                 _nearest(foreground.shape[1], w) if foreground is not None else _NO_INDEX,
-                motion_range if own else _NO_TABLE,
-                soft,
+                range_bounds(motion_range) if own else _NO_BOUNDS,
+                soft if soft is not None else _NO_TABLE,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
-                sure if sure is not None else _NO_TABLE,
-                SURE,
                 background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
             if streaky:
-                _streaks_only(moving, in_range, min_blob_area)
+                _streaks_only(moving, in_range, min_blob_area, rows)
             if moving is not None:
                 moving_integral = integral_image(moving)
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
-        blobs = find_blobs(counted, blob_method, min_blob_area)
+        blobs = find_blobs(counted, blob_method, min_blob_area, rows)
         origins, directions = camera.rays(blobs.centres)
         seeds = None
         if ball is not None or moving is not None:
-            seeds = _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_blob_area, ball)
+            seeds = _seeds(
+                camera, blobs, origins, directions, moving, soft if ball is not None else None, blob_method, min_blob_area, ball, rows
+            )
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted)
 
 
@@ -166,6 +169,7 @@ def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
 _NO_TABLE = np.zeros((0, 0), np.uint8)
 _NO_INDEX = np.zeros(0, np.intp)
+_NO_BOUNDS = np.zeros(0, np.int64)
 
 
 @lru_cache(maxsize=16)
@@ -175,17 +179,18 @@ def _nearest(small: int, full: int) -> np.ndarray:
     return index
 
 
-def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int) -> None:
+def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, rows: np.ndarray | None = None) -> None:
     """Clears, in place, the moving pixels out of the range (in the streak range only) but in moving blobs shaped
     like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
-    moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames)."""
+    moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames). ``rows``: as
+    find_blobs takes them."""
     pale = cv2.subtract(moving, in_range)  # the moving pixels out of the range (both maps 0/1)
     if not cv2.countNonZero(pale):
         return
-    blobs = find_blobs(moving, "components", min_blob_area)
+    blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
-    keep = np.zeros_like(pale)
+    kept = []
     for k in np.flatnonzero(blobs.swept) if len(blobs) else ():  # only streak-shaped blobs keep pale pixels: look in their boxes
         x0, y0, x1, y1 = (int(c) * s for c in blobs.boxes[k])
         ys, xs = np.nonzero(moving[y0:y1, x0:x1])
@@ -198,8 +203,10 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int) 
         grow = int(np.ceil(blobs.axes[k, 0]))  # and no more of the ball's colour around it (its length again on every side)
         around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
         if around < pale_share * blobs.areas[k]:
-            keep[ys[paler], xs[paler]] = 1
-    np.subtract(moving, cv2.subtract(pale, keep), out=moving)
+            kept.append((ys[paler], xs[paler]))
+    cv2.subtract(moving, pale, dst=moving)  # every pale pixel out, then the streaks' back
+    for ys, xs in kept:
+        moving[ys, xs] = 1
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
@@ -208,11 +215,11 @@ DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blo
 SURE = 191
 
 
-def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_blob_area, ball) -> Seeds:
+def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_blob_area, ball, rows=None) -> Seeds:
     """Ball-like blobs of the colour mask, then those of its moving part that are not the same blob again
     (a ball moving in front of a wall of its colour is a blob of its own only in the moving part), then, when
     a colour blob was no ball (a ball merged with scenery of its hue: a hand, a prop, a wall), the ball-like
-    blobs of the colour that is surely the ball's that no seed holds yet."""
+    blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
     moved = [np.zeros(int(keep.sum()), bool)]
@@ -229,7 +236,7 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
             moved.append(np.full(int(new.sum()), moving))
 
     if moving is not None:
-        mb = find_blobs(moving, blob_method, min_blob_area)
+        mb = find_blobs(moving, blob_method, min_blob_area, rows)
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
         if len(blobs) and len(mb):
             dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
@@ -237,8 +244,9 @@ def _seeds(camera, blobs, origins, directions, moving, sure, blob_method, min_bl
             new &= ~same.any(axis=1)
             moved[0] = same.any(axis=0)[keep]  # a colour blob that is a moving one too moves
         take(mb, new, True)
-    if sure is not None and not keep.all():
-        sb = find_blobs(sure, blob_method, min_blob_area)
+    if soft is not None and not keep.all():
+        sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
+        sb = find_blobs(sure, blob_method, min_blob_area, rows)
         new = ball_like(sb, camera.focal_px, *ball)
         held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
         if len(sb) and len(held_c):

@@ -15,14 +15,19 @@ HUE_STEP, SAT_STEP = 4, 8
 
 
 @kernel
-def subsampled(mask, scale):
+def subsampled(mask, scale, rows):
     """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), and
-    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty)."""
+    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty).
+    Rows of the mask that ``rows`` (one per mask row; empty: every row) marks 0 are empty: they are not read."""
     h, w = mask.shape
     out = np.empty(((h + scale - 1) // scale, (w + scale - 1) // scale), mask.dtype)
     x0, y0, x1, y1 = out.shape[1], out.shape[0], 0, 0
+    every = rows.shape[0] == 0
     for y in range(out.shape[0]):
         row, o = mask[scale * y], out[y]
+        if not every and not rows[scale * y]:
+            o[:] = 0
+            continue
         first, last = -1, -1
         for x in range(out.shape[1]):
             o[x] = row[scale * x]
@@ -110,27 +115,26 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
-def evidence_maps(
-    in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, sure, sure_level, behind
-):
+def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
 
     - with a colour ``table`` (p(ball | colour) x 255 per hue-saturation bin; empty: no colour model) the
       ``soft`` map, p inside the range, and ``mask`` = soft > 127 (what OpenCV's back-projection, a masked
-      AND and a threshold give, in one pass that reads only pixels in range), and (``sure`` not empty)
-      ``sure`` = soft > ``sure_level``;
+      AND and a threshold give, in one pass that reads only pixels in range);
     - with a ``foreground`` map (empty: no motion; pixel (x, y) reads foreground[fg_rows[y], fg_cols[x]],
       nearest-neighbour from the background's smaller grid) the ``moving`` map, range AND foreground; with a
-      ``motion_range`` (0/1; empty: the range) that map instead of the range; with the table and the background
+      ``motion_range`` (HSV bounds h0, s0, v0, h1, s1, v1 and 1 where the hue wraps around red, as
+      colour.target_mask reads a range; empty: the range) the pixels of ``hsv`` in it instead of the range, read
+      only where the foreground is set (a whole-image mask of it cost more than the rest of this pass); with the table and the background
       in HSV (``behind``, on the foreground's grid; empty: none), a pixel in range moves only where it is at
       least as likely the ball's colour as what the background held there (where a ball was and a wall of its
       hue is now, the wall moved in no sense).
-    Rows with no pixel in either (``rows_in_range`` 0; most rows: the range is a few balls) are passed over."""
+    Rows ``rows_in_range`` marks 0 are passed over: the caller marks the rows with a pixel in range and, with a
+    motion range, those with a foreground cell (most rows hold neither: the range is a few balls)."""
     h, w = in_range.shape
     use_table = table.shape[0] > 0
     use_fg = foreground.shape[0] > 0
-    use_sure = sure.shape[0] > 0
     use_behind = use_table and use_fg and behind.shape[0] > 0
     own_motion_range = motion_range.shape[0] > 0
     for y in range(h):
@@ -144,14 +148,25 @@ def evidence_maps(
                 p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
                 soft[y, x] = p
                 mask[y, x] = 1 if p > 127 else 0
-                if use_sure:
-                    sure[y, x] = 1 if p > sure_level else 0
-            if use_fg and (motion_range[y, x] if own_motion_range else inside):
+            if use_fg and (own_motion_range or inside):
                 fx = fg_cols[x]
                 moves = foreground[fy, fx] != 0
+                if moves and own_motion_range:
+                    moves = _in_bounds(hsv[y, x, 0], hsv[y, x, 1], hsv[y, x, 2], motion_range)
                 if moves and use_behind and inside:
                     moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
                 moving[y, x] = 1 if moves else 0
+
+
+@kernel(inline="always")
+def _in_bounds(h, s, v, bounds):
+    """Is the HSV pixel (h, s, v) inside ``bounds`` (h0, s0, v0, h1, s1, v1, wraps)? cv2.inRange's test, the hue
+    either side of red when the range wraps (colour.target_mask)."""
+    if s < bounds[1] or s > bounds[4] or v < bounds[2] or v > bounds[5]:
+        return False
+    if bounds[6]:
+        return h >= bounds[0] or h <= bounds[3]
+    return h >= bounds[0] and h <= bounds[3]
 
 
 @kernel

@@ -34,6 +34,29 @@ ABSORB_FRAMES = 5  # a moving patch none of whose cells changed for this many fr
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
 
+# A white or grey ball's kept-out disc (a target of every hue: its colour is the wall's) must show something in this
+# frame: a ball's shading and rim give its disc a mean gradient of 4-20 grey levels per pixel (on the background's
+# grid); the flat wall a ghost is made of, under 1. white_ball tune seeds 0-19: the predicted discs of tracks within
+# 12 cm of a ball fell under 2 in 12 frames of 1368 (all on a track running off a fast ball), those 30 cm or more from
+# every ball in 130 of 172.
+STRUCTURE_MIN = 2.0
+
+
+def structure(image: np.ndarray, u: float, v: float, r: float) -> float:
+    """The mean gradient magnitude (grey levels per pixel, Sobel) of ``image`` (BGR, uint8 or float32) over the disc
+    of radius 1.3 ``r`` around (u, v): how much a disc there shows. A ball has shading and a rim, a flat wall none."""
+    h, w = image.shape[:2]
+    grow = int(np.ceil(1.3 * r)) + 2
+    x0, x1, y0, y1 = max(int(u) - grow, 0), min(int(u) + grow + 1, w), max(int(v) - grow, 0), min(int(v) + grow + 1, h)
+    if x1 - x0 < 3 or y1 - y0 < 3:
+        return 0.0
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    disc = np.hypot(xs - u, ys - v) <= 1.3 * r + 0.5
+    grey = image[y0:y1, x0:x1].astype(np.float32).mean(axis=2)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    return float(np.hypot(gx[disc], gy[disc]).mean())
+
 
 def halved(image: np.ndarray) -> np.ndarray:
     """The image on the background's grid: each SCALE x SCALE block's mean, rounded (cv2.resize's INTER_AREA by a
@@ -45,8 +68,9 @@ def halved(image: np.ndarray) -> np.ndarray:
 class BackgroundModel:
     """One camera's background, learnt as frames come."""
 
-    def __init__(self, camera: Camera, rate: float, threshold: float):
+    def __init__(self, camera: Camera, rate: float, threshold: float, rim_checked: frozenset[str] = frozenset()):
         self.camera = camera
+        self.rim_checked = rim_checked  # targets (of every hue: white, grey) whose kept-out discs must show something (_ghosts)
         self.rate = rate  # weight of each new frame in the running average (1 / frames it takes to learn a change)
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
@@ -77,8 +101,10 @@ class BackgroundModel:
         if balls is not None and len(balls):
             uv, front, depth = self.camera.view(balls.centres)
             r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
-            for (u, v), ok, radius in zip(uv, front, r):
-                if ok and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
+            small = (halved(image) if image_halved is None else image_halved) if self.rim_checked else None
+            ghost = self._ghosts(small, balls, uv, front, r * SCALE / KEEP_OUT_MARGIN)
+            for (u, v), ok, radius, g in zip(uv, front, r, ghost):
+                if ok and not g and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
         moving = np.empty(learn.shape, np.uint8)
         if self.behind is None:
@@ -110,6 +136,19 @@ class BackgroundModel:
         if self._behind_hsv is None and self.behind is not None:
             self._behind_hsv = cv2.cvtColor(self.behind, cv2.COLOR_BGR2HSV)
         return self._behind_hsv
+
+    def _ghosts(self, small: np.ndarray | None, balls: TrackedBalls, uv: np.ndarray, front: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Per ball (``uv``, ``r``: its centre and apparent radius on the evidence grid), whether its disc is a ghost
+        to be learnt all the same: for the targets of ``rim_checked``, a disc that shows nothing in this frame (a
+        white ball's place in a white room, once the ball that sat there when the background started has gone). A
+        white ball there, at rest or moving, shows its shading and rim."""
+        out = np.zeros(len(balls), bool)
+        if not self.rim_checked:
+            return out
+        for k, ((u, v), ok, radius, name) in enumerate(zip(uv, front, r, balls.targets)):
+            if name in self.rim_checked and ok and np.isfinite(u) and np.isfinite(v):
+                out[k] = structure(small, u / SCALE, v / SCALE, radius / SCALE) < STRUCTURE_MIN
+        return out
 
     def _absorb_ghosts(self, moving: np.ndarray, learn: np.ndarray) -> None:
         """Learn at once the moving patches none of whose cells has changed for ABSORB_FRAMES frames: a ghost

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
+from ..evidence.blobs import STREAK_FILL, uneven
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
 from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
@@ -291,8 +292,10 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
     out = []
     for j, (v, b) in enumerate(zip(views, blobs)):
         swept = np.zeros(len(b), bool)
-        if b.widths is not None and b.boxes is not None and v.moving_integral is not None and len(b):
+        if b.widths is not None and b.boxes is not None and b.axes is not None and v.moving_integral is not None and len(b):
             swept = b.widths != b.radii
+            short = ~swept & _short_streaks(b, v.counted if v.counted is not None else v.mask)
+            swept |= short
             for k in np.flatnonzero(swept):
                 x0, y0, x1, y1 = (int(c) * b.label_scale for c in b.boxes[k])
                 h, w = v.moving_integral.shape[0] - 1, v.moving_integral.shape[1] - 1
@@ -301,6 +304,24 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
                 swept[k] = moving >= 0.8 * b.areas[k] and k not in shared[j]
         out.append(swept)
     return out
+
+
+SHORT_STREAK_ELONGATION = 1.3  # a moving blob this much longer than wide (and as full and even as a streak) is a short blur
+
+
+def _short_streaks(b, counted: np.ndarray) -> np.ndarray:
+    """Per blob: a ball blurred along its path to 1.3-2 times its width (a big ball's short blur, Blobs.streaks asks
+    for 2): as full as a streak, away from the image's edge and as wide all along. Its width is still the ball's
+    (its length is not: the particles judge its larger side and start 10-15 % too near: fast_ball tune seed 5).
+    Only blobs that are also mostly moving (``_swept``) count: a half-lit ball at rest is as elongated."""
+    b_minor = np.maximum(b.axes[:, 1], 0.5)
+    h, w = counted.shape
+    s = b.label_scale
+    inside = (b.boxes[:, 0] > 0) & (b.boxes[:, 1] > 0) & (b.boxes[:, 2] * s < w) & (b.boxes[:, 3] * s < h)
+    short = (b.axes[:, 0] >= SHORT_STREAK_ELONGATION * b_minor) & (b.areas >= STREAK_FILL * np.pi * b.axes[:, 0] * b_minor) & inside
+    if short.any() and b.major is not None:
+        short[short] = ~uneven(counted, b.centres[short], b.major[short], b.axes[short])
+    return short
 
 
 def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
@@ -318,20 +339,59 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swe
         streak = swept[j][ids]
         on[on] = streak
         ids = ids[streak]
-        ratio = out[on, j] + np.log(np.maximum(b.widths[ids], 0.5) / np.maximum(b.radii[ids], 0.5))  # against its width
+        width = b.axes[ids, 1] if b.axes is not None else b.widths[ids]  # a streak's width (short streaks' too, ``_short_streaks``)
+        ratio = out[on, j] + np.log(np.maximum(width, 0.5) / np.maximum(b.radii[ids], 0.5))  # against its width
         out[on, j] = np.where(ratio < 0, np.minimum(ratio + STREAK_THINNING, 0.0), ratio)
     return out
 
 
-def _agree(gap: np.ndarray, cov: np.ndarray, streak: bool, radius: float) -> float:
-    """How far the triangulated blobs may be from the particles' mean and still be the same ball: 3 radii, and for
-    streaks 3 standard deviations of the triangulation more (a far fast ball's particles judge a streak a ball wide
-    but as long as a fifth of its disparity along the epipolar lines, and their mean strays 0.3 m at 16 m; the
-    centroids triangulate to their half pixel: fast_ball tune seed 9)."""
-    if not streak:
-        return 3.0 * radius
+def _agree(point: np.ndarray, obj: Object3D, cov: np.ndarray, slack: float | None, radius: float, origin: np.ndarray) -> bool:
+    """Are the triangulated blobs ``point`` (covariance ``cov``) and the particles' mean ``obj`` the same ball? Within
+    3 radii; for streaks (``slack`` not None) 3 standard deviations of the triangulation and of the particles more
+    (a far fast ball's particles judge a streak a ball wide but as long as a fifth of its disparity along the epipolar
+    lines, and their mean strays 0.3 m at 16 m; the centroids triangulate to their half pixel: fast_ball tune seed 9),
+    and along the viewing ray (from ``origin``) a share ``slack`` of the distance more: the particles judge a streak's
+    size somewhere between its width and its length, so their depth may be off by as much as its width falls short of
+    its length (a short blur's particles 15 % too near, fast_ball tune seed 5; their spread claimed 0.2 m of 1 m)."""
+    gap = point - obj.position
+    if slack is None:
+        return bool(np.linalg.norm(gap) <= 3.0 * radius)
+    spread = obj.covariance
+    if spread is not None and np.shape(spread) == (3, 3) and np.isfinite(spread).all():
+        cov = cov + spread
     u = gap / max(float(np.linalg.norm(gap)), 1e-9)
-    return 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
+    tol = 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
+    ray = (point - origin) / max(float(np.linalg.norm(point - origin)), 1e-9)
+    along = float(gap @ ray)
+    across = float(np.linalg.norm(gap - along * ray))
+    return across <= tol and abs(along) <= tol + slack * float(np.linalg.norm(point - origin))
+
+
+def _slack(views: list[int], ids: np.ndarray, blobs, swept: list[np.ndarray]) -> float | None:
+    """A ball's streaks in its clean ``views`` (blob ``ids``): how far short of its length a streak's width falls at
+    most (1 - width / length), or None when one of them is no streak."""
+    if not all(swept[j][ids[j]] for j in views):
+        return None
+    axes = [blobs[j].axes[ids[j]] for j in views]
+    return max(1.0 - max(float(b), 0.5) / max(float(a), 0.5) for a, b in axes) if all(a is not None for a in axes) else 0.0
+
+
+STREAK_ALONG = 0.05  # a streak's centroid along it is this share of its length (beyond its width) uncertain
+
+
+def _centroid_covs(b, ids: np.ndarray, streak: np.ndarray) -> np.ndarray:
+    """Per blob (``ids``): its centroid's covariance (2 x 2, pixels^2). Half a pixel every way; for a streak
+    (``streak``) more along it: its ends fade into the background it swept over, and how much of them stays in the
+    range decides where its centroid falls along it (0.5-2.4 pixels on 10-pixel streaks at 12 m, where their
+    disparity is 21 pixels: fast_ball tune seed 13), while across it the centroid keeps its half pixel."""
+    covs = np.repeat((CENTROID_SIGMA_PX**2 * np.eye(2))[None], len(ids), axis=0)
+    if b.axes is None or b.major is None or not streak.any():
+        return covs
+    k = ids[streak]
+    along = STREAK_ALONG * np.maximum(b.axes[k, 0] - b.axes[k, 1], 0.0)
+    u = b.major[k]
+    covs[streak] += (along**2)[:, None, None] * u[:, :, None] * u[:, None, :]
+    return covs
 
 
 def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, predicted, swept) -> list[Object3D]:
@@ -359,11 +419,14 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
     for good, idx in by_cameras.items():
         px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
-        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, CENTROID_SIGMA_PX)
-        streak = all(swept[j][blob_ids[idx, j]].all() for j in good)
+        streaky = [swept[j][blob_ids[idx, j]] for j in good[:2]]
+        spread = [_centroid_covs(blobs[j], blob_ids[idx, j], on) for j, on in zip(good[:2], streaky)] if any(map(np.any, streaky)) else None
+        points, covs = triangulate_with_covariance([cameras[j] for j in good], px, CENTROID_SIGMA_PX, spread)
+        origin = cameras[good[0]].centre
         for i, point, cov in zip(idx, points, covs):
-            if np.linalg.norm(point - merged[i].position) <= _agree(point - merged[i].position, cov, streak, settings.radius):
-                out[i] = replace(merged[i], position=point, covariance=cov)
+            slack = _slack(list(good), blob_ids[i], blobs, swept)
+            if _agree(point, merged[i], cov, slack, settings.radius, origin):
+                out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:
         out[i] = _one_view(

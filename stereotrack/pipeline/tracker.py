@@ -17,7 +17,7 @@ import numpy as np
 from ..camera import Camera, Rig, intrinsics_from_fov, look_at
 from ..config import Config, Target
 from ..errors import StereotrackError
-from ..evidence.colour import camera_masks
+from ..evidence.colour import camera_masks, motion_range, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, every_nth, on_grid
 from ..evidence.motion import BackgroundModel, halved
@@ -66,9 +66,12 @@ class Tracker:
         smallest = min(t.radius for t in config.targets)
         self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
+        white = frozenset(t.name for t in config.targets if t.any_hue)  # their kept-out discs are checked for ghosts
         self.backgrounds = (
-            [BackgroundModel(cam, s.background_rate, s.foreground_threshold) for cam in self.evidence_cameras] if s.motion else None
+            [BackgroundModel(cam, s.background_rate, s.foreground_threshold, white) for cam in self.evidence_cameras] if s.motion else None
         )
+        # Where each target's moving map may take pixels out of its range: a white ball's shaded side, a fast ball's streak
+        self.moving_ranges = {t.name: (motion_range(t), None) if t.any_hue else (None, streak_range(t)) for t in config.targets}
         self.last_time: float | None = None
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
@@ -182,8 +185,7 @@ class Tracker:
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
-                cm.motion_ranges.get(t.name) if cm.motion_ranges else None,
-                cm.streak_ranges.get(t.name) if cm.streak_ranges else None,
+                *self.moving_ranges[t.name],
             )
             for t in self.config.targets
         }

@@ -38,6 +38,9 @@ from .flight import fit_parabola
 from .kernels import association_costs, kalman_correct, kalman_predict
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
+SWEPT_CONFIRM_RADII = (
+    2.0  # a first object at streaks (Object3D.swept) whose position is this sharp (one sigma, ball radii) confirms a track
+)
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
@@ -195,7 +198,7 @@ class TrackManager:
             for j in np.flatnonzero(free):
                 if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
                     continue
-                self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time))
+                self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
@@ -362,12 +365,28 @@ class TrackManager:
         enough = len(times) >= 3 and times[-1] - times[0] > _EPS_TIME
         tr.parabola = fit_parabola(times, positions, self.gravity) if tr.in_flight and enough else None
 
-    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> _Track:
+    def _lost_near(self, target: str, z: np.ndarray, time: float) -> bool:
+        """Is a confirmed track of this target, missed this frame and predicted in view, within ``max_speed`` of ``z``
+        since its latest hit? Then a new object there may be its ball again (a juggled ball lost at a catch)."""
+        lost = [t for t in self._tracks if t.target == target and t.confirmed and not t.hit]
+        if not lost:
+            return False
+        pos = np.array([t.x[:3] for t in lost])
+        reach = np.array([self.settings.max_speed * max(time - t.last_hit, _EPS_TIME) for t in lost])
+        return bool((self._in_view(pos) & (np.linalg.norm(pos - z, axis=1) <= reach)).any())
+
+    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float, rival: bool = False) -> _Track:
         P = np.zeros((6, 6))
         P[:3, :3] = R
         P[3:, 3:] = np.eye(3) * self.settings.init_speed_sigma**2
         tr = _Track(self._next_id, target, np.r_[z, 0.0, 0.0, 0.0], P, time, time, time, n_particles=int(obj.n_particles))
-        tr.confirmed = self.settings.confirm_time <= _EPS_TIME
+        # A fast ball's streaks in two cameras that triangulate where its particles are, to within two ball radii:
+        # clutter leaves no streaks, and a thrown ball is seen for a few frames only (waiting for three hits lost the
+        # first two of every throw). A far one's depth is vaguer: reported there, it would be a miss and a false track.
+        # A ``rival`` (``_lost_near``) may be the same ball: its track gets the hits to win it back first.
+        sharp = float(np.sqrt(max(np.linalg.eigvalsh(R)[-1], 0.0))) <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
+        fast = self.settings.confirm_speed > 0 and obj.swept and sharp and not rival
+        tr.confirmed = self.settings.confirm_time <= _EPS_TIME or fast
         self._next_id += 1
         return tr
 
@@ -402,7 +421,8 @@ class TrackManager:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
-        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view
+        # A track seen once has no velocity to coast by (one confirmed by its first streak, ``_new_track``).
+        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view and tr.hits > 1
         reported = tr.confirmed and (tr.hit or coasting_ok)
         if not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch:
             # A flying ball lost on its way down, past the height it was thrown from, was most likely caught there.

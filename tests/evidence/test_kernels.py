@@ -63,6 +63,30 @@ def test_the_one_pass_evidence_maps_are_what_opencv_gives_step_by_step():
     assert np.array_equal(plain.integral, cv2.integral(in_range, sdepth=cv2.CV_32S))
 
 
+def test_a_moving_map_of_its_own_range_reads_it_from_the_hsv_where_something_moves_as_target_mask_does():
+    """A white ball's motion range and a fast ball's streak range (wrapping around red too) are read pixel by pixel
+    where the foreground is set: the moving map is what OpenCV's mask of that range AND the foreground give."""
+    from scene_helpers import default_rig
+
+    from stereotrack.config import Target
+    from stereotrack.evidence.colour import motion_range, target_mask
+    from stereotrack.evidence.gather import CameraEvidence
+
+    rng = np.random.default_rng(13)
+    hsv = _scene(rng)
+    hsv[..., 0] = (hsv[..., 0].astype(int) * 179 // 255).astype(np.uint8)  # hues over the whole circle
+    foreground = (rng.random((60, 81)) < 0.4).astype(np.uint8)
+    moves = cv2.resize(foreground, (163, 121), interpolation=cv2.INTER_NEAREST)
+    camera = default_rig().cameras[0]
+    white = Target("white", (0, 0, 120), (179, 90, 230))
+    for own in (motion_range(white), Target("red", (160, 60, 40), (25, 255, 255)), Target("teal", (70, 50, 50), (100, 200, 255))):
+        wanted = cv2.bitwise_and(target_mask(hsv, own), moves)
+        assert 0 < wanted.sum() < moves.sum()
+        in_range = np.zeros_like(wanted)  # nothing in the typed range: only the own range moves
+        ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, hsv=hsv, motion_range=own)
+        assert np.array_equal(ev.moving, wanted), own
+
+
 def test_the_colour_histograms_are_what_calchist_counts_on_the_subsampled_grid():
     from stereotrack.evidence.colour_model import H_BINS, LEARN_STEP, S_BINS
 
@@ -214,12 +238,17 @@ def test_still_patches_are_absorbed_as_labelling_every_patch_gives():
         assert trial % 2 or still.any()
 
 
-def test_the_subsampled_mask_is_numpys_strided_copy():
+def test_the_subsampled_mask_is_numpys_strided_copy_and_skips_the_rows_said_empty():
     rng = np.random.default_rng(16)
+    every = np.zeros(0, np.uint8)
     for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
         mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
-        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale)
+        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale, every)
         assert np.array_equal(small, mask[::scale, ::scale])
         ys, xs = np.nonzero(small)
         assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
-    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2)[1:] == (0, 0, 0, 0)
+        rows = (rng.random(h) < 0.5).astype(np.uint8)  # rows marked 0 are not read: they come out empty
+        masked = mask * rows[:, None]
+        small, *box = evidence_kernels.subsampled(mask, scale, rows)
+        assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[1:]
+    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)[1:] == (0, 0, 0, 0)

@@ -29,7 +29,7 @@ def _moving_view(draw):
     draw(image)
     fg = bg.update(image)
     cm = camera_masks(cam.name, image, (blue,), integrals=False)
-    view = CameraEvidence.from_mask(cam, cm.masks["blue"], foreground=fg, streak_range=cm.streak_ranges["blue"])
+    view = CameraEvidence.from_mask(cam, cm.masks["blue"], foreground=fg, streak_range=streak_range(blue), hsv=cm.hsv)
     return cm, view
 
 

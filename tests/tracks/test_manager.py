@@ -386,3 +386,26 @@ def test_a_duplicate_track_lost_where_its_ball_is_still_seen_is_not_caught_back_
         if t > t_catch + 4 / fps:
             reported.append({tr.track_id for tr in tracks if tr.reported})
     assert len({tid for ids in reported for tid in ids}) == 1  # the ball's own track only
+
+
+def test_a_thrown_ball_seen_as_streaks_in_two_cameras_is_confirmed_on_its_first_frame():
+    """Objects placed at a fast ball's streaks triangulated in two cameras (``Object3D.swept``) are no clutter: the
+    track is reported from its first frame (three hits in a row lose the first two of every throw). A lone streak seen
+    once is reported that frame only: it has no velocity to coast by. One whose position is vaguer than two ball radii
+    (far away) waits for its hits as before."""
+    m = TrackManager(TrackSettings(), radius={"red": 0.03})
+    velocity = np.array([-25.0, 1.0, 2.0])
+    reported, ids = [], set()
+    for i in range(15):
+        t = i / 60
+        tracks = m.update([replace(obj(np.array([4.0, 10.0, 0.5]) + velocity * t), swept=True)], t)
+        shown = [tr for tr in tracks if tr.reported]
+        reported.append(bool(shown))
+        ids.update(tr.track_id for tr in shown)
+    assert all(reported) and ids == {1}
+    m = TrackManager(TrackSettings(), radius={"red": 0.03})
+    shown = [[tr for tr in m.update(objs, i / 60) if tr.reported] for i, objs in enumerate([[replace(obj([0, 8, 0]), swept=True)], [], []])]
+    assert [len(s) for s in shown] == [1, 0, 0]
+    m = TrackManager(TrackSettings(), radius={"red": 0.03})
+    far = [m.update([replace(obj(np.array([4.0, 14.0, 0.5]) + velocity * i / 60, sigma=0.1), swept=True)], i / 60) for i in range(2)]
+    assert not any(tr.reported for tracks in far for tr in tracks)
