@@ -65,7 +65,7 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarra
     inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
     swept = streaks(areas, axes) & inside
-    swept[swept] = ~uneven(mask, centres[swept], major[swept], axes[swept])
+    swept[swept] = ~_uneven(mask, centres[swept], major[swept], axes[swept])
     widths = np.where(swept, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
     return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2), widths, swept)
 
@@ -117,7 +117,7 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     return Blobs(cand.astype(float), count.astype(float), radii)
 
 
-def uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
+def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """Per blob: is it wider in some places than others along its major axis, as two balls side by side or one
     partly behind another are (a streak is as wide all along its straight part)? Counts the mask's pixels across
     the blob at 7 places within 0.6 semi-major axes of its centroid (within 1.2 semi-minor axes of the axis):
@@ -160,14 +160,32 @@ STREAK_ELONGATION = 2.0  # a blob this much longer than wide, ...
 STREAK_FILL = 0.8  # ... that fills its moments' ellipse this much, is a ball swept along a line (a capsule fills it 0.9-1.1)
 
 
-def streaks(areas: np.ndarray, axes: np.ndarray) -> np.ndarray:
+def streaks(areas: np.ndarray, axes: np.ndarray, elongation: float = STREAK_ELONGATION) -> np.ndarray:
     """Per blob: a ball smeared into a streak by its motion during the exposure (a filled capsule), whose width, not
     its length, is the ball's. A crescent (a ball partly in range) fills its ellipse about half: not a streak. A ball
     cut by the image's edge is one too (a half disc fills its ellipse): the caller keeps those out."""
     if not len(areas):
         return np.zeros(0, bool)
     b = np.maximum(axes[:, 1], 0.5)
-    return (axes[:, 0] >= STREAK_ELONGATION * b) & (areas >= STREAK_FILL * np.pi * axes[:, 0] * b)
+    return (axes[:, 0] >= elongation * b) & (areas >= STREAK_FILL * np.pi * axes[:, 0] * b)
+
+
+SHORT_STREAK_ELONGATION = 1.3  # a moving blob this much longer than wide (and as full and even as a streak) is a short blur
+
+
+def short_streaks(b: Blobs, mask: np.ndarray) -> np.ndarray:
+    """Per blob of ``mask`` (``b``, from find_blobs): a ball blurred along its path to 1.3-2 times its width (a big
+    ball's short blur; ``streaks`` asks for 2): as full as a streak, away from the image's edge and as wide all along.
+    Its width is still the ball's (its length is not: the particles judge its larger side and start 10-15 % too near:
+    fast_ball tune seed 5). The caller (objects/explain.py) counts only blobs that are also mostly moving: a half-lit
+    ball at rest is as elongated."""
+    h, w = mask.shape
+    s = b.label_scale
+    inside = (b.boxes[:, 0] > 0) & (b.boxes[:, 1] > 0) & (b.boxes[:, 2] * s < w) & (b.boxes[:, 3] * s < h)
+    short = streaks(b.areas, b.axes, SHORT_STREAK_ELONGATION) & inside
+    if short.any() and b.major is not None:
+        short[short] = ~_uneven(mask, b.centres[short], b.major[short], b.axes[short])
+    return short
 
 
 # A blob must fill this much of its moments' ellipse: a disc, a cut disc or a streak do, a ring or a scatter do not.

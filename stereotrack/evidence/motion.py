@@ -100,9 +100,10 @@ class BackgroundModel:
         balls = self._moved(balls)
         if balls is not None and len(balls):
             uv, front, depth = self.camera.view(balls.centres)
-            r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
+            seen = self.camera.apparent_radius(balls.radii, depth)  # pixels of the evidence grid
+            r = seen * KEEP_OUT_MARGIN / SCALE
             small = (halved(image) if image_halved is None else image_halved) if self.rim_checked else None
-            ghost = self._ghosts(small, balls, uv, front, r * SCALE / KEEP_OUT_MARGIN)
+            ghost = self._ghosts(small, balls, uv, front, seen)
             for (u, v), ok, radius, g in zip(uv, front, r, ghost):
                 if ok and not g and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)

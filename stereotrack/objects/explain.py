@@ -43,7 +43,7 @@ import numpy as np
 
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
-from ..evidence.blobs import STREAK_FILL, uneven
+from ..evidence.blobs import short_streaks
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
 from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
@@ -57,7 +57,7 @@ class ExplainSettings:
     radius: float  # ball radius, metres
     refine: bool = TrackerSettings.refine
     disc_fit: bool = TrackerSettings.disc_fit  # place a ball in a shared blob by fitting the union of ball discs to it
-    # A short blur (_short_streaks) counts as a streak. Not for a target of every hue (white, grey): its moving map takes
+    # A short blur (blobs.short_streaks) counts as a streak. Not for a target of every hue (white, grey): its moving map takes
     # the ball's shaded side and a slow ball's trail (colour.motion_range), which stretch a ball's blob as a blur would
     # (white_ball tune seeds 0-19 with short blurs: median 0.837 -> 0.797, seeds 1, 6, 7, 18 down 0.06-0.12).
     short_streaks: bool = True
@@ -287,7 +287,7 @@ def _held_twice(predicted: np.ndarray | None, cameras, blobs, radius: float) -> 
     return out
 
 
-def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius: float, short_streaks: bool = True) -> list[np.ndarray]:
+def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius: float, short_blurs: bool = True) -> list[np.ndarray]:
     """Per camera, per blob: a fast ball's streak. Shaped like one (``Blobs.widths``), mostly moving (a static prop as
     long and as filled is not: its blob in the refine step would be clean, and its object a steady false track:
     clutter 0.976 -> 0.907), and not where two tracked balls overlap (two balls side by side look like a streak)."""
@@ -298,8 +298,8 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
         swept = np.zeros(len(b), bool)
         if b.widths is not None and b.boxes is not None and b.axes is not None and v.moving_integral is not None and len(b):
             swept = b.widths != b.radii
-            if short_streaks:
-                swept |= _short_streaks(b, v.counted if v.counted is not None else v.mask)
+            if short_blurs:
+                swept |= short_streaks(b, v.counted if v.counted is not None else v.mask)
             for k in np.flatnonzero(swept):
                 x0, y0, x1, y1 = (int(c) * b.label_scale for c in b.boxes[k])
                 h, w = v.moving_integral.shape[0] - 1, v.moving_integral.shape[1] - 1
@@ -308,24 +308,6 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
                 swept[k] = moving >= 0.8 * b.areas[k] and k not in shared[j]
         out.append(swept)
     return out
-
-
-SHORT_STREAK_ELONGATION = 1.3  # a moving blob this much longer than wide (and as full and even as a streak) is a short blur
-
-
-def _short_streaks(b, counted: np.ndarray) -> np.ndarray:
-    """Per blob: a ball blurred along its path to 1.3-2 times its width (a big ball's short blur, Blobs.streaks asks
-    for 2): as full as a streak, away from the image's edge and as wide all along. Its width is still the ball's
-    (its length is not: the particles judge its larger side and start 10-15 % too near: fast_ball tune seed 5).
-    Only blobs that are also mostly moving (``_swept``) count: a half-lit ball at rest is as elongated."""
-    b_minor = np.maximum(b.axes[:, 1], 0.5)
-    h, w = counted.shape
-    s = b.label_scale
-    inside = (b.boxes[:, 0] > 0) & (b.boxes[:, 1] > 0) & (b.boxes[:, 2] * s < w) & (b.boxes[:, 3] * s < h)
-    short = (b.axes[:, 0] >= SHORT_STREAK_ELONGATION * b_minor) & (b.areas >= STREAK_FILL * np.pi * b.axes[:, 0] * b_minor) & inside
-    if short.any() and b.major is not None:
-        short[short] = ~uneven(counted, b.centres[short], b.major[short], b.axes[short])
-    return short
 
 
 def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
@@ -343,7 +325,7 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swe
         streak = swept[j][ids]
         on[on] = streak
         ids = ids[streak]
-        width = b.axes[ids, 1] if b.axes is not None else b.widths[ids]  # a streak's width (short streaks' too, ``_short_streaks``)
+        width = b.axes[ids, 1] if b.axes is not None else b.widths[ids]  # a streak's width (short streaks' too, blobs.short_streaks)
         ratio = out[on, j] + np.log(np.maximum(width, 0.5) / np.maximum(b.radii[ids], 0.5))  # against its width
         out[on, j] = np.where(ratio < 0, np.minimum(ratio + STREAK_THINNING, 0.0), ratio)
     return out

@@ -103,23 +103,29 @@ def test_a_thin_streak_places_its_ball_at_its_triangulated_centroid():
     assert np.linalg.norm(kept[0].position - off) < 0.01
 
 
-def test_a_far_streak_takes_its_triangulated_centroid_where_the_particles_stray_more_than_three_radii():
-    """At 6 m a streak is long against its disparity along the epipolar lines, and the particles' mean strays 0.3 m
-    in depth (8.6 radii); the centroids triangulate to their half pixel, so the blobs agree within 3 radii plus 3
-    standard deviations of the triangulation (about 0.15 m along the depth there)."""
+def _blurred(ball: np.ndarray, velocity: np.ndarray):
+    """The default rig, and per camera the mask of a ball swept from ``ball - velocity`` to ``ball + velocity`` during
+    the exposure (a line a ball wide), with its evidence, the mask moving all over."""
     import cv2
 
     from stereotrack.evidence.gather import CameraEvidence
 
     rig = default_rig()
-    ball, velocity = np.array([0.1, 6.0, 0.0]), np.array([0.15, 0.0, 0.02])
     masks = []
     for cam in rig.cameras:
         m = np.zeros((cam.height, cam.width), np.uint8)
         (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
         cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(2 * r)), cv2.LINE_8, 4)
         masks.append(m)
-    views = tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
+    return rig, masks, tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
+
+
+def test_a_far_streak_takes_its_triangulated_centroid_where_the_particles_stray_more_than_three_radii():
+    """At 6 m a streak is long against its disparity along the epipolar lines, and the particles' mean strays 0.3 m
+    in depth (8.6 radii); the centroids triangulate to their half pixel, so the blobs agree within 3 radii plus 3
+    standard deviations of the triangulation (about 0.15 m along the depth there)."""
+    ball = np.array([0.1, 6.0, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.15, 0.0, 0.02]))
     assert all(v.blobs.swept[0] for v in views)
     off = ball - 0.3 * ball / np.linalg.norm(ball)
     kept, _ = explain([obj(off)], views, ExplainSettings(radius=RADIUS))
@@ -131,19 +137,8 @@ def test_a_short_blur_of_a_moving_ball_takes_its_triangulated_centroid():
     judge it by its larger side and put it 12 % too near, claiming a spread a fifth of that. Moving, as full and as
     even as a streak, its width is the ball's and its centroid the ball's mean position: the object takes the
     triangulated centroids. The same shape at rest (a half-lit ball, a prop) keeps the particles' word."""
-    import cv2
-
-    from stereotrack.evidence.gather import CameraEvidence
-
-    rig = default_rig()
-    ball, velocity = np.array([0.05, 1.5, 0.0]), np.array([0.018, 0.0, 0.0])
-    masks = []
-    for cam in rig.cameras:
-        m = np.zeros((cam.height, cam.width), np.uint8)
-        (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
-        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(2 * r)), cv2.LINE_8, 4)
-        masks.append(m)
-    views = tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
+    ball = np.array([0.05, 1.5, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.018, 0.0, 0.0]))
     for v in views:
         (a, b), swept = v.blobs.axes[0], v.blobs.swept[0]
         assert 1.4 < a / b < 1.9 and not swept, (a, b, swept)  # a short blur: no streak to the blob finder
