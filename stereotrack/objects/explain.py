@@ -43,7 +43,7 @@ import numpy as np
 
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
-from ..evidence.blobs import short_streaks
+from ..evidence.blobs import minor_skew, short_streaks
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
 from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
@@ -272,6 +272,31 @@ def _whole(blob_ids: np.ndarray, blobs, log_ratio: np.ndarray) -> np.ndarray:
     return (fill >= ROUND_FILL) | (np.nan_to_num(log_ratio) > STREAK_LONGER)
 
 
+LOPSIDED = 0.12  # a blob's skewness across its major axis from which it is a ball cut straight, not one blurred
+
+
+def _blurred(whole: np.ndarray, smeared: np.ndarray, blob_ids: np.ndarray, views: Sequence[CameraEvidence], swept) -> np.ndarray:
+    """Per object and camera: its blob there, not ``whole``, is a ball blurred along its path: a streak or a short blur
+    (``swept``) as wide on either side of its axis (blobs.minor_skew), or any blob of a ball ``smeared`` in another
+    view (a fast ball). A half disc (a ball cut by a prop or the image's edge) is as elongated and as full as a short
+    blur, and at its depth no narrower than one (a fast ball's blur is thinned by the background it swept over: 0.5-0.7
+    of its width in fast_ball tune seed 1, where a half disc's is 0.53), but it has a flat side and a curved one: its
+    skewness across its axis is 0.15-0.4 (static_props tune seeds 0, 4, 7, 11), a short blur's 0.0-0.13 (fast_ball,
+    motion_blur). A blur's centroid is its ball's (main's short-blur rule); a half disc's is not, and the partial-view
+    fit reads it (fast_ball tune seed 1 fell 0.833 -> 0.625 with the fit on its short blurs)."""
+    out = np.zeros(whole.shape, bool)
+    fast = smeared.any(axis=1)
+    for j, v in enumerate(views):
+        ask = (blob_ids[:, j] >= 0) & ~whole[:, j]
+        out[ask & fast, j] = True
+        ask &= ~fast
+        ask[ask] = swept[j][blob_ids[ask, j]]
+        if ask.any():
+            idx = np.flatnonzero(ask)
+            out[idx, j] = minor_skew(v.blobs, v.counted if v.counted is not None else v.mask, blob_ids[idx, j]) < LOPSIDED
+    return out
+
+
 STREAK_THINNING = math.log(2.0)  # a streak may be down to half its ball's width in range: ...
 
 
@@ -391,6 +416,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
     cameras, blobs, rays = [v.camera for v in evidence], [v.blobs for v in evidence], [v.rays for v in evidence]
     whole = _whole(blob_ids, blobs, log_ratio)  # before streaks are measured by their width
     smeared = whole & (np.nan_to_num(log_ratio) > STREAK_LONGER)
+    whole |= _blurred(whole, smeared, blob_ids, evidence, swept)
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
     views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
     # A ball longer than itself in some view is fast (a streak, blurred), not hidden: its disc would hold none of its
