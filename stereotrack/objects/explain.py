@@ -61,10 +61,14 @@ class ExplainSettings:
     # the ball's shaded side and a slow ball's trail (colour.motion_range), which stretch a ball's blob as a blur would
     # (white_ball tune seeds 0-19 with short blurs: median 0.837 -> 0.797, seeds 1, 6, 7, 18 down 0.06-0.12).
     short_streaks: bool = True
+    # A ball's blob that does not fill its disc is a ball seen in part (discs.partial_mismatch). Not for a target of every
+    # hue either: its shaded side is out of its range, so its blob is a crescent wherever it is (white_ball tune seeds
+    # 0-19 with the partial-view fit: median 0.837 -> 0.806, seeds 5, 8, 18 down 0.07-0.16).
+    partial_views: bool = True
 
     @classmethod
-    def of(cls, tracker: TrackerSettings, radius: float, short_streaks: bool = True) -> ExplainSettings:
-        return cls(radius, tracker.refine, tracker.disc_fit, short_streaks)
+    def of(cls, tracker: TrackerSettings, radius: float, short_streaks: bool = True, partial_views: bool = True) -> ExplainSettings:
+        return cls(radius, tracker.refine, tracker.disc_fit, short_streaks, partial_views)
 
 
 SIZE_TOLERANCE = 0.3  # sigma of log(blob radius / expected radius) in the ranking
@@ -414,14 +418,14 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
     positions of the others.
     """
     cameras, blobs, rays = [v.camera for v in evidence], [v.blobs for v in evidence], [v.rays for v in evidence]
-    whole = _whole(blob_ids, blobs, log_ratio)  # before streaks are measured by their width
+    whole = _whole(blob_ids, blobs, log_ratio) | (not settings.partial_views)  # before streaks are measured by their width
     smeared = whole & (np.nan_to_num(log_ratio) > STREAK_LONGER)
     whole |= _blurred(whole, smeared, blob_ids, evidence, swept)
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
     views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
     # A ball longer than itself in some view is fast (a streak, blurred), not hidden: its disc would hold none of its
     # views (fast_ball tune seed 7 fell 0.534 -> -0.155 with the partial-view fit on its streaks).
-    fast = [i for i in kept if smeared[i].any()]
+    fast = [i for i in kept if smeared[i].any() or not settings.partial_views]  # (or no partial views for this target)
     views.update({i: (*views[i][:2], []) for i in fast})
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}

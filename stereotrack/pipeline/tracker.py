@@ -56,7 +56,9 @@ class Tracker:
         root = np.random.default_rng(s.seed)
         self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
         self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
-        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue) for t in config.targets}
+        self.explain_settings = {
+            t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue, partial_views=not t.any_hue) for t in config.targets
+        }
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.radius = {t.name: t.radius for t in config.targets}
