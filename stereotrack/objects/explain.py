@@ -43,7 +43,7 @@ import numpy as np
 
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
-from ..evidence.blobs import SHORT_STREAK_ELONGATION, minor_skew, short_streaks
+from ..evidence.blobs import minor_skew, short_streaks
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
 from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
@@ -281,8 +281,8 @@ LOPSIDED = 0.12  # a blob's skewness across its major axis from which it is a ba
 
 def _blurred(whole: np.ndarray, smeared: np.ndarray, blob_ids: np.ndarray, views: Sequence[CameraEvidence], swept) -> np.ndarray:
     """Per object and camera: its blob there, not ``whole``, is a ball blurred along its path: a streak or a short blur
-    (``swept``) as wide on either side of its axis (blobs.minor_skew), or any blob as elongated as a short blur of a ball
-    ``smeared`` in another view (a fast ball). A half disc (a ball cut by a prop or the image's edge) is as elongated and as full as a short
+    (``swept``) as wide on either side of its axis (blobs.minor_skew), or any blob of a ball ``smeared`` in another
+    view (a fast ball). A half disc (a ball cut by a prop or the image's edge) is as elongated and as full as a short
     blur, and at its depth no narrower than one (a fast ball's blur is thinned by the background it swept over: 0.5-0.7
     of its width in fast_ball tune seed 1, where a half disc's is 0.53), but it has a flat side and a curved one: its
     skewness across its axis is 0.15-0.4 (static_props tune seeds 0, 4, 7, 11), a short blur's 0.0-0.13 (fast_ball,
@@ -292,10 +292,7 @@ def _blurred(whole: np.ndarray, smeared: np.ndarray, blob_ids: np.ndarray, views
     fast = smeared.any(axis=1)
     for j, v in enumerate(views):
         ask = (blob_ids[:, j] >= 0) & ~whole[:, j]
-        on = ask & fast
-        if on.any() and v.blobs.axes is not None:  # as elongated as a blur: a fast ball's round blob is no blur (hands tune seed 18)
-            axes = v.blobs.axes[blob_ids[on, j]]
-            out[np.flatnonzero(on)[axes[:, 0] >= SHORT_STREAK_ELONGATION * np.maximum(axes[:, 1], 0.5)], j] = True
+        out[ask & fast, j] = True
         ask &= ~fast
         ask[ask] = swept[j][blob_ids[ask, j]]
         if ask.any():
