@@ -56,7 +56,9 @@ class Tracker:
         root = np.random.default_rng(s.seed)
         self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
         self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
-        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue) for t in config.targets}
+        self.explain_settings = {
+            t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue, partial_views=not t.any_hue) for t in config.targets
+        }
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.radius = {t.name: t.radius for t in config.targets}
@@ -245,6 +247,7 @@ def warm_up() -> None:
     tracker follows a tiny drawn scene made to visit every stage's branches
     (two colours; a pink ball partly behind an orange one in one view; two
     pink balls sharing a blob in one view and apart in the other, so the disc
+    fit runs; a pink ball cut by a grey bar in one view, so the partial-view
     fit runs; tracks confirmed, so exclusion and the Kalman steps run). Every
     kernel is then compiled with the argument types a real run passes;
     tests/test_kernels.py checks that each one was, and that a real run
@@ -275,6 +278,7 @@ def warm_up() -> None:
             ("pink", behind + drift),
             ("pink", np.array([0.3, 1.8, 0.1]) - drift),
             ("orange", np.array([0.27, 1.6, 0.1]) - drift),
+            ("pink", cut := np.array([-0.35, 1.4, -0.15]) + drift),
         ]
         images = []
         for cam in cams:
@@ -283,6 +287,10 @@ def warm_up() -> None:
                 uv, _, z = cam.view(centre[None])
                 r = cam.apparent_radius(radius, z[0])
                 cv2.circle(img, (int(round(uv[0, 0])), int(round(uv[0, 1]))), max(1, int(round(r))), colours[name].tolist(), -1)
+            if cam is cams[1]:  # a grey bar hides the left half of one ball in this view only
+                uv, _, z = cam.view(cut[None])
+                r = cam.apparent_radius(radius, z[0])
+                cv2.rectangle(img, (int(uv[0, 0] - r - 2), int(uv[0, 1] - r - 2)), (int(uv[0, 0]), int(uv[0, 1] + r + 2)), (60, 60, 60), -1)
             images.append(img)
         tracker.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
 
