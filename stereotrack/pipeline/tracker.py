@@ -20,7 +20,7 @@ from ..errors import StereotrackError
 from ..evidence.colour import camera_masks, motion_range, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, every_nth, on_grid
-from ..evidence.motion import BackgroundModel, halved
+from ..evidence.motion import SCALE, BackgroundModel, halved, shading, still_only
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -175,6 +175,7 @@ class Tracker:
         small, cm, small_halved = colours if colours is not None else self._colours(j, image)
         foreground = self.backgrounds[j].update(small, balls, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
+        shaded = self._shaded(j, small_halved, foreground)
         views = {
             t.name: CameraEvidence.from_mask(
                 cam,
@@ -182,7 +183,7 @@ class Tracker:
                 None,
                 s.blob_method,
                 max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
-                foreground,
+                shaded[t.name] if t.name in shaded else foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
@@ -192,6 +193,21 @@ class Tracker:
             for t in self.config.targets
         }
         return cm, views, (1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+
+    def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> dict[str, np.ndarray]:
+        """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their
+        shading added (motion.shading): a white ball at rest in a white room moves no more than the wall and has its
+        colour, and counts as moving where its shading shows. Empty without motion or such a target."""
+        if foreground is None or small_halved is None:
+            return {}
+        out = {}
+        cam = self.evidence_cameras[j]
+        for t in self.config.targets:
+            if t.any_hue:
+                seen = cam.focal_px * t.radius / SCALE  # the ball's apparent radius on the background's grid at 1 m
+                near, far = seen / max(self.config.tracker.d_min, SHADING_NEAR), seen / self.config.tracker.d_max
+                out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
+        return out
 
     def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
         """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
@@ -205,6 +221,9 @@ class Tracker:
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
         return table
+
+
+SHADING_NEAR = 0.5  # metres: the nearest a white ball's shading map expects it (its holes are filled up to its lit centre there)
 
 
 HALF_GRID_MIN_WIDTH = 1280  # automatic evidence_scale: images this wide or wider ...
