@@ -48,11 +48,16 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarra
     small, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)
     # Labels only: OpenCV's per-component statistics cost several times the labelling itself. Labelled inside the
     # box of the set pixels (most of a mask is empty), from an even corner: OpenCV labels 2 x 2 blocks in raster
-    # order, so the labels are those of the whole mask.
-    labels = np.zeros(small.shape, np.int32)
+    # order, so the labels are those of the whole mask. OpenCV writes them into the box of the label image, whose
+    # margins alone are zeroed (the box was written twice, zeroed then copied: six label images a frame).
+    labels = np.empty(small.shape, np.int32)
+    labels[:y0], labels[y1:], labels[y0:y1, :x0], labels[y0:y1, x1:] = 0, 0, 0, 0
     n = 1
     if x1:
-        n, labels[y0:y1, x0:x1] = cv2.connectedComponents(small[y0:y1, x0:x1], connectivity=8, ltype=cv2.CV_32S)
+        box = labels[y0:y1, x0:x1]
+        n, written = cv2.connectedComponents(small[y0:y1, x0:x1], labels=box, connectivity=8, ltype=cv2.CV_32S)
+        if not np.shares_memory(written, labels):  # an OpenCV that made an array of its own
+            box[:] = written
     # Which components are blobs, and each blob measured at full resolution (its moments, axes, size), in one call
     label_blob, boxes, areas, centres, size, second, axes, radii = component_measures(
         mask, labels[y0:y1, x0:x1], n, x0, y0, scale, min_area

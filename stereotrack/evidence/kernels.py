@@ -166,8 +166,10 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
       least as likely the ball's colour as what the background held there (where a ball was and a wall of its
       hue is now, the wall moved in no sense).
     Rows ``rows_in_range`` marks 0 are passed over: the caller marks the rows with a pixel in range and, with a
-    motion range, those with a foreground cell (most rows hold neither: the range is a few balls)."""
+    motion range, those with a foreground cell (most rows hold neither: the range is a few balls).
+    Returns how many moving pixels are out of the range (with a motion range: its paler pixels)."""
     h, w = in_range.shape
+    pale = 0
     use_table = table.shape[0] > 0
     use_fg = foreground.shape[0] > 0
     use_behind = use_table and use_fg and behind.shape[0] > 0
@@ -191,6 +193,9 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
                 if moves and use_behind and inside:
                     moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
                 moving[y, x] = 1 if moves else 0
+                if moves and not inside:
+                    pale += 1
+    return pale
 
 
 @kernel(inline="always")
