@@ -113,7 +113,7 @@ class CameraEvidence:
             fg_rows = _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX
             if own:  # the moving rows too; no map has a pixel outside these rows
                 rows = np.maximum(rows, foreground.max(axis=1)[fg_rows])
-            evidence_maps(
+            pale = evidence_maps(
                 in_range,
                 rows,
                 hsv if colour_table is not None or own else _NO_HSV,
@@ -129,7 +129,7 @@ class CameraEvidence:
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
-            if streaky:
+            if streaky and pale:
                 _streaks_only(moving, in_range, min_blob_area, rows)
             if moving is not None:
                 moving_integral = integral_image(moving)
@@ -184,10 +184,7 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
     like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
     moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames). ``rows``: as
-    find_blobs takes them."""
-    pale = cv2.subtract(moving, in_range)  # the moving pixels out of the range (both maps 0/1)
-    if not cv2.countNonZero(pale):
-        return
+    find_blobs takes them. Called only when some moving pixel is out of the range (evidence_maps counts them)."""
     blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
     kept = []
@@ -204,7 +201,7 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
         around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
         if around < pale_share * blobs.areas[k]:
             kept.append((ys[paler], xs[paler]))
-    cv2.subtract(moving, pale, dst=moving)  # every pale pixel out, then the streaks' back
+    cv2.bitwise_and(moving, in_range, dst=moving)  # every pale pixel out (both maps 0/1), then the streaks' back
     for ys, xs in kept:
         moving[ys, xs] = 1
 
