@@ -82,20 +82,10 @@ def test_a_thin_streak_places_its_ball_at_its_triangulated_centroid():
     """A fast ball's streak whose colour the background diluted at its edges: 0.6 of the ball's width in range, longer
     than the ball. Its centroid is the ball's mean position: an object the particles put 8 cm off along the depth takes
     the triangulated centroids (its size alone would call the view unclean: a ball that narrow is farther), when it moves."""
-    import cv2
 
-    rig = default_rig()
-    ball, velocity = np.array([0.0, 1.5, 0.0]), np.array([0.1, 0.0, 0.0])
-    masks = []
-    for cam in rig.cameras:
-        m = np.zeros((cam.height, cam.width), np.uint8)
-        (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
-        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(1.2 * r)), cv2.LINE_8, 4)
-        masks.append(m)
-    from stereotrack.evidence.gather import CameraEvidence
-
+    ball = np.array([0.0, 1.5, 0.0])
+    rig, masks, moving = _blurred(ball, np.array([0.1, 0.0, 0.0]), width=1.2)  # every pixel of it moves
     off = ball + 0.08 * ball / np.linalg.norm(ball)
-    moving = tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))  # every pixel of it moves
     kept, _ = explain([obj(off)], moving, ExplainSettings(radius=RADIUS))
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.02, kept[0].position
     # A static prop of that shape is no streak: its object keeps the particles' word.
@@ -103,9 +93,10 @@ def test_a_thin_streak_places_its_ball_at_its_triangulated_centroid():
     assert np.linalg.norm(kept[0].position - off) < 0.01
 
 
-def _blurred(ball: np.ndarray, velocity: np.ndarray):
+def _blurred(ball: np.ndarray, velocity: np.ndarray, width: float = 2.0):
     """The default rig, and per camera the mask of a ball swept from ``ball - velocity`` to ``ball + velocity`` during
-    the exposure (a line a ball wide), with its evidence, the mask moving all over."""
+    the exposure (a line ``width`` ball radii wide: 2 for the whole ball, less where the background diluted its edges),
+    with its evidence, the mask moving all over."""
     import cv2
 
     from stereotrack.evidence.gather import CameraEvidence
@@ -115,7 +106,7 @@ def _blurred(ball: np.ndarray, velocity: np.ndarray):
     for cam in rig.cameras:
         m = np.zeros((cam.height, cam.width), np.uint8)
         (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
-        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(2 * r)), cv2.LINE_8, 4)
+        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(width * r)), cv2.LINE_8, 4)
         masks.append(m)
     return rig, masks, tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
 
@@ -161,19 +152,8 @@ def test_a_short_thin_blur_that_does_not_fill_its_disc_is_no_ball_seen_in_part()
     prop does; it is as full and as elongated as a half disc too. But it is as wide on either side of its path, where a
     half disc has a flat side and a curved one: its views are clean, and the object takes their triangulated centroids
     (fast_ball tune seed 1: the partial-view fit on such blurs, or no fit, lost the ball's depth)."""
-    import cv2
-
-    from stereotrack.evidence.gather import CameraEvidence
-
-    rig = default_rig()
-    ball, velocity = np.array([0.05, 1.5, 0.0]), np.array([0.017, 0.0, 0.006])
-    masks = []
-    for cam in rig.cameras:
-        m = np.zeros((cam.height, cam.width), np.uint8)
-        (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
-        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(1.2 * r)), cv2.LINE_8, 4)
-        masks.append(m)
-    views = tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
+    ball = np.array([0.05, 1.5, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.017, 0.0, 0.006]), width=1.2)
     for v, cam in zip(views, rig.cameras):
         (a, b), size, fill = v.blobs.axes[0], v.blobs.radii[0], v.blobs.areas[0] / (np.pi * v.blobs.radii[0] ** 2)
         assert 1.6 < a / b < 2.0 and fill < 0.7 and size < 1.15 * cam.apparent_radius(RADIUS, cam.depth(ball[None]))[0]
