@@ -46,6 +46,7 @@ _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-amb
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
 TRAVEL = 2.0  # a track is settled (its ball keeps its disc out of the background) once it has gone this many ball radii from where it was first shown ...
 HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
+STOP_SPEED = 2.0  # m/s: a ball this fast at its latest hit may have stopped there (caught, at a wall): tried there too
 SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
@@ -179,7 +180,11 @@ class TrackManager:
                 cols = np.flatnonzero(free)
                 if not tracks or not len(cols):
                     continue
-                for ti, cj, caught in self._assign(tracks, z[cols], R[cols], time):
+                # An object may be a fast ball stopped where it was last seen only if it is at rest (not at streaks) and
+                # placed to within a few ball radii (a far ball's depth is vaguer than its last frame's travel).
+                sharp = np.sqrt(np.linalg.eigvalsh(R[cols])[:, -1]) <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
+                still = sharp & ~np.array([objs[j].swept for j in cols], bool)
+                for ti, cj, caught in self._assign(tracks, z[cols], R[cols], time, still):
                     j = cols[cj]
                     if caught:
                         self._catch(tracks[ti], time)
@@ -246,7 +251,7 @@ class TrackManager:
             R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
         return R
 
-    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float) -> list[tuple[int, int, bool]]:
+    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float, still: np.ndarray) -> list[tuple[int, int, bool]]:
         """Gated global assignment: (track index, object index, caught) with squared Mahalanobis distance <= gate.
         A flying ball missed since its latest hit may have been caught: it is then near where it was last seen, not
         down its parabola. Each such track is also tried there (``_caught``); ``caught`` says that hypothesis won."""
@@ -262,7 +267,11 @@ class TrackManager:
         if held:
             rows = np.array([i for i, _ in held])
             d2h, costh = association_costs(np.array([h[0] for _, h in held]), np.array([h[1] for _, h in held]), z, R)
-            better = (d2h <= self.settings.gate) & (~gated[rows] | (costh < cost[rows]))
+            # A flying ball missed since its latest hit: the likelier place wins. A fast ball not in flight is tried where it
+            # was only for objects its prediction does not gate (an abrupt stop), not where it is merely nearer, and only
+            # for ``still`` objects.
+            flying = np.array([tracks[i].in_flight for i in rows])[:, None]
+            better = (d2h <= self.settings.gate) & (~gated[rows] | (flying & (costh < cost[rows]))) & (flying | still[None, :])
             cost[rows] = np.where(better, costh, cost[rows])
             gated[rows] |= better
             caught[rows] = better
@@ -272,7 +281,9 @@ class TrackManager:
     def _caught(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray] | None:
         """Where a flying ball missed since its latest hit would be had a hand caught it then: (position, covariance)
         around that hit, growing as a hand may carry it (HAND_SPEED); None for a ball not flying or not missed."""
-        if tr.caught_at is None or not tr.in_flight or tr.streak > 0:  # streak: 0 once a frame was missed (``update``)
+        # streak: 0 once a frame was missed (``update``). A flying ball seen last frame is where its parabola says; one
+        # stopped where it was last seen (a fast ball not in flight) shows there the very next frame.
+        if tr.caught_at is None or (tr.in_flight and tr.streak > 0) or (not tr.in_flight and tr.streak == 0):
             return None
         dt = time - tr.last_hit
         position, P = tr.caught_at
@@ -338,7 +349,8 @@ class TrackManager:
         self._follow_flight(tr, z, R, time)
         tr.n_particles = int(obj.n_particles)
         tr.seen_at = tr.x[:3].copy()
-        tr.caught_at = (tr.seen_at, tr.P[:3, :3].copy()) if tr.in_flight else None
+        fast = np.linalg.norm(tr.x[3:]) >= STOP_SPEED
+        tr.caught_at = (tr.seen_at, tr.P[:3, :3].copy()) if tr.in_flight or fast else None
         if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
             tr.confirmed = True
         # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third
