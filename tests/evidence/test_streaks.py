@@ -5,9 +5,9 @@ import numpy as np
 from scene_helpers import RADIUS, default_rig
 
 from stereotrack.config import Target
-from stereotrack.evidence.colour import camera_masks, streak_range
-from stereotrack.evidence.gather import CameraEvidence
-from stereotrack.evidence.motion import BackgroundModel
+from stereotrack.evidence.colour import camera_masks, range_bounds, streak_range
+from stereotrack.evidence.gather import CameraEvidence, Faint
+from stereotrack.evidence.motion import BackgroundModel, halved
 
 PALE_BLUE = cv2.cvtColor(np.uint8([[[108, 60, 170]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()  # saturation 60 < the range's 80
 BLUE = cv2.cvtColor(np.uint8([[[118, 200, 170]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
@@ -57,3 +57,50 @@ def test_the_streak_range_widens_hue_and_saturation_and_wraps_around_red():
     assert red.hsv_min == (162, 40, 45) and red.hsv_max == (18, 255, 255) and red.wraps
     wide = streak_range(Target("any", (10, 90, 90), (175, 255, 255), RADIUS))
     assert wide.hsv_min[0] == 0 and wide.hsv_max[0] == 179
+
+
+LAVENDER = (205.0, 180.0, 190.0)  # BGR: a wall of about the complementary colour of a yellow-green ball
+YELLOW_GREEN = cv2.cvtColor(np.uint8([[[40, 200, 200]]]), cv2.COLOR_HSV2BGR)[0, 0].astype(float)
+
+
+def _faint_view(share: float, colour=YELLOW_GREEN, wall=LAVENDER, shape="streak", faint: bool = True):
+    """The evidence of a yellow-green target on a lavender wall after 20 calm frames, with a far fast ball's streak in
+    the last: the wall and the ball mixed, the ball ``share`` of the exposure (drawn as a 4-pixel-wide line, or a disc)."""
+    cam = default_rig().cameras[0]
+    target = Target("ball", (30, 80, 80), (50, 255, 255), RADIUS)
+    bg = BackgroundModel(cam, rate=0.05, threshold=30, faint=faint)
+    rng = np.random.default_rng(11)
+
+    def room():
+        return np.clip(np.array(wall)[None, None] + rng.normal(0, 2, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
+
+    for _ in range(20):
+        bg.update(room())
+    image = room()
+    mixed = (np.array(wall) + share * (np.asarray(colour, float) - np.array(wall))).tolist()
+    if shape == "streak":
+        cv2.line(image, (200, 240), (240, 244), mixed, 4)
+    else:
+        cv2.circle(image, (220, 242), 8, mixed, -1)
+    small = halved(image)
+    fg = bg.update(image, image_halved=small)
+    cm = camera_masks(cam.name, image, (target,), integrals=False)
+    extra = Faint(bg.faint, small, bg.behind, range_bounds(target)) if faint else None
+    return CameraEvidence.from_mask(cam, cm.masks["ball"], foreground=fg, streak_range=streak_range(target), hsv=cm.hsv, faint=extra)
+
+
+def test_a_faint_streak_that_mixes_to_grey_is_evidence_and_a_faint_disc_or_shadow_is_not():
+    """A far fast ball's streak on a wall of about its complementary colour: the mix is grey (no pixel in the streak
+    range) and differs from the wall by less than the threshold (no moving pixel), but it differs by more than the
+    faint share of it, and the change points from the wall to the ball's range: the moving map holds it and it seeds
+    particles at its width's depth (fast_ball tune seed 17). Without the faint map it is not there; a faint disc of the
+    same colour is no streak, and a faint grey streak (a shadow: the change points to black) is not the ball's."""
+    share = 0.09  # the streak differs from the wall by 21 grey levels (three channels): under the threshold's 30
+    assert 15 < share * np.abs(YELLOW_GREEN - LAVENDER).sum() < 25
+    view = _faint_view(share)
+    assert view.mask.sum() == 0
+    assert view.moving[242, 220] == 1 and view.moving.sum() > 80
+    assert len(view.seeds) == 1 and abs(view.seeds.widths[0] - 2) < 1.5
+    assert _faint_view(share, faint=False).moving.sum() == 0
+    assert _faint_view(share, shape="disc").moving.sum() == 0
+    assert _faint_view(0.035, colour=(0.0, 0.0, 0.0)).moving.sum() == 0
