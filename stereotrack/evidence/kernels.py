@@ -235,7 +235,8 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
     levels) exceeds ``threshold``. ``calm`` counts the frames in a row (at most 255) each cell has differed from
     the ``previous`` frame's (uint8, updated here) by at most ``threshold``. ``behind`` (uint8) gets the
     background as it was, rounded (what cv2.convertScaleAbs gives); ``faint`` (empty: none) = 1 where the change
-    exceeds ``faint_threshold`` instead (a fast ball's pale streak: gather.py). Then the cell learns, b += rate (cell - b),
+    exceeds ``faint_threshold`` instead, and so does the change from the ``previous`` frame (a fast ball's pale
+    streak, never twice in one place: gather.py). Then the cell learns, b += rate (cell - b),
     where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more.
     Each row runs channel by channel over its 3 W values first (a loop the compiler vectorises: no branch in it;
     a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell."""
@@ -267,8 +268,9 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
         for i in range(w):
             total = change[3 * i] + change[3 * i + 1] + change[3 * i + 2]
             out[i] = 1 if total > threshold else 0
-            if use_faint:
-                faint[j, i] = 1 if total > faint_threshold else 0
+            if use_faint:  # changed from the frame before too: a ghost (the wall where the background holds a ball) is calm
+                stepped = step[3 * i] + step[3 * i + 1] + step[3 * i + 2]
+                faint[j, i] = 1 if total > faint_threshold and stepped > faint_threshold else 0
             count[i] = min(count[i] + 1, 255) if step[3 * i] + step[3 * i + 1] + step[3 * i + 2] <= threshold else 0
             if out[i] and count[i] >= absorb_frames:
                 calm_moving += 1
