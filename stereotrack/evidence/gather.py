@@ -149,7 +149,7 @@ class CameraEvidence:
                     more = _faint_streaks(in_range, moving, faint, range_bounds(motion_range), (w, h))
                     if more is not None:
                         rows = np.maximum(rows, more[1])
-                        for ys, xs in _kept_streaks(more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range)):
+                        for ys, xs in _kept_streaks(more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), more[2]):
                             moving[ys, xs] = 1
             if moving is not None:
                 moving_integral = integral_image(moving)
@@ -214,33 +214,41 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
         moving[ys, xs] = 1
 
 
+FRESH_SHARE = 0.5  # a faint streak blob must have changed from the frame before in this share of its pixels at least
 KNOWN_SHARE = 0.2  # a faint streak blob with more of its pixels in the moving map or the range than this is no new streak
 
 
-def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
+def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tuple[int, int]) -> tuple | None:
     """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, at the image's size
-    ``size`` (w, h) as the foreground is read) with the ``moving`` map's, and which rows hold any; None when none of
-    them is out of the range and the moving map (nothing new to look at)."""
+    ``size`` (w, h) as the foreground is read) with the ``moving`` map's, which rows hold any, and the cells' marks
+    there (2: changed from the frame before); None when none of them is out of the range and the moving map."""
     if not cv2.countNonZero(faint.cells):
         return None
     cells = np.empty_like(faint.cells)
     pale_cells(faint.cells, faint.image, faint.behind, streak, faint.bounds, cells)
     if not cv2.countNonZero(cells):
         return None
-    pale = cv2.resize(cells, size, interpolation=cv2.INTER_NEAREST)
+    marks = cv2.resize(cells, size, interpolation=cv2.INTER_NEAREST)
+    pale = cv2.threshold(marks, 0, 1, cv2.THRESH_BINARY)[1]
     if not cv2.countNonZero(cv2.subtract(pale, cv2.bitwise_or(in_range, moving))):
         return None
     pale = cv2.bitwise_or(pale, moving)
-    return pale, pale.max(axis=1)
+    return pale, pale.max(axis=1), marks
 
 
 def _kept_streaks(
-    moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, rows: np.ndarray | None, known: np.ndarray | None = None
+    moving: np.ndarray,
+    in_range: np.ndarray,
+    min_blob_area: int,
+    rows: np.ndarray | None,
+    known: np.ndarray | None = None,
+    marks: np.ndarray | None = None,
 ) -> list:
     """The pale pixels (out of the range) of ``moving``'s blobs that are streaks, mostly that pale, with fewer pixels
     in range around them than pale ones (_streaks_only), as (ys, xs) per blob; with ``known`` (0/1), only of blobs
     mostly new there (KNOWN_SHARE): a streak the moving map holds already keeps its width (the faint halo around it
-    would widen it, and a streak's width is its ball's depth: fast_ball tune seed 13 a third of a metre near)."""
+    would widen it, and a streak's width is its ball's depth: fast_ball tune seed 13 a third of a metre near); with
+    the faint cells' ``marks``, only of blobs mostly changed from the frame before (FRESH_SHARE)."""
     blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
     kept = []
@@ -251,6 +259,8 @@ def _kept_streaks(
         ys, xs = ys[mine] + y0, xs[mine] + x0
         if known is not None and np.count_nonzero(known[ys, xs]) > KNOWN_SHARE * len(ys):
             continue
+        if marks is not None and np.count_nonzero(marks[ys, xs] == 2) < FRESH_SHARE * len(ys):
+            continue  # mostly where it was the frame before: a ghost (a streak overlaps the one before it a little)
         paler = in_range[ys, xs] == 0
         pale_share = paler.sum() / max(len(ys), 1)
         if pale_share <= 0.5:

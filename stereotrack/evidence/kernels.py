@@ -235,8 +235,8 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
     levels) exceeds ``threshold``. ``calm`` counts the frames in a row (at most 255) each cell has differed from
     the ``previous`` frame's (uint8, updated here) by at most ``threshold``. ``behind`` (uint8) gets the
     background as it was, rounded (what cv2.convertScaleAbs gives); ``faint`` (empty: none) = 1 where the change
-    exceeds ``faint_threshold`` instead, and so does the change from the ``previous`` frame (a fast ball's pale
-    streak, never twice in one place: gather.py). Then the cell learns, b += rate (cell - b),
+    exceeds ``faint_threshold`` instead, 2 where the change from the ``previous`` frame does too (a fast ball's pale
+    streak is mostly somewhere new each frame, a ghost never: gather.py). Then the cell learns, b += rate (cell - b),
     where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more.
     Each row runs channel by channel over its 3 W values first (a loop the compiler vectorises: no branch in it;
     a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell."""
@@ -268,9 +268,9 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
         for i in range(w):
             total = change[3 * i] + change[3 * i + 1] + change[3 * i + 2]
             out[i] = 1 if total > threshold else 0
-            if use_faint:  # changed from the frame before too: a ghost (the wall where the background holds a ball) is calm
+            if use_faint:  # 2 where it changed from the frame before too: a ghost (the wall where the background holds a ball) is calm
                 stepped = step[3 * i] + step[3 * i + 1] + step[3 * i + 2]
-                faint[j, i] = 1 if total > faint_threshold and stepped > faint_threshold else 0
+                faint[j, i] = 0 if total <= faint_threshold else (2 if stepped > faint_threshold else 1)
             count[i] = min(count[i] + 1, 255) if step[3 * i] + step[3 * i + 1] + step[3 * i + 2] <= threshold else 0
             if out[i] and count[i] >= absorb_frames:
                 calm_moving += 1
@@ -322,21 +322,22 @@ UNMIX_MAX = 10  # a streak's pixel may show the ball for as little as 1 / UNMIX_
 @kernel
 def pale_cells(faint, image, behind, streak, target, out):
     """Per cell of the background's grid (``image``, this frame there, and ``behind``, the background, both BGR
-    uint8): ``out`` = 1 where ``faint`` is set and the cell could be a fast ball's streak: its colour in the
-    ``streak`` bounds (colour.streak_range), or the background plus 1 to UNMIX_MAX times its change in the
-    ``target`` bounds. A pixel the ball swept over sees it a share a of the exposure and the room the rest,
-    pixel = background + a (ball - background): on a wall of the complementary colour (a yellow ball on lavender)
+    uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
+    the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range), or the
+    background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
+    a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the complementary colour (a yellow ball on lavender)
     the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17)."""
     h, w = faint.shape
     for y in range(h):
         for x in range(w):
-            if not faint[y, x]:
+            mark = faint[y, x]
+            if not mark:
                 out[y, x] = 0
                 continue
             b, g, r = np.float32(image[y, x, 0]), np.float32(image[y, x, 1]), np.float32(image[y, x, 2])
             hh, ss, vv = _hsv(b, g, r)
             if _in_bounds(hh, ss, vv, streak):
-                out[y, x] = 1
+                out[y, x] = mark
                 continue
             b0, g0, r0 = np.float32(behind[y, x, 0]), np.float32(behind[y, x, 1]), np.float32(behind[y, x, 2])
             hit = 0
@@ -346,7 +347,7 @@ def pale_cells(faint, image, behind, streak, target, out):
                     break
                 hh, ss, vv = _hsv(cb, cg, cr)
                 if _in_bounds(hh, ss, vv, target):
-                    hit = 1
+                    hit = mark
                     break
             out[y, x] = hit
 
