@@ -325,8 +325,8 @@ def pale_cells(faint, image, behind, streak, target, out):
     uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
     the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range), or the
     background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
-    a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the complementary colour (a yellow ball on lavender)
-    the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17)."""
+    a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the
+    complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17)."""
     h, w = faint.shape
     for y in range(h):
         for x in range(w):
