@@ -315,8 +315,14 @@ def _agree(point: np.ndarray, obj: Object3D, cov: np.ndarray, slack: float | Non
     size somewhere between its width and its length, so their depth may be off by as much as its width falls short of
     its length (a short blur's particles 15 % too near, fast_ball tune seed 5; their spread claimed 0.2 m of 1 m)."""
     gap = point - obj.position
-    if slack is None:
-        return bool(np.linalg.norm(gap) <= 3.0 * radius)
+    if slack is None and np.linalg.norm(gap) <= 3.0 * radius:
+        return True
+    if slack is None:  # farther apart only along the viewing ray, within what the triangulation and the particles claim
+        ray = (point - origin) / max(float(np.linalg.norm(point - origin)), 1e-9)
+        along = float(gap @ ray)
+        spread = obj.covariance if obj.covariance is not None and np.isfinite(obj.covariance).all() else np.zeros((3, 3))
+        sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))
+        return bool(np.linalg.norm(gap - along * ray) <= 3.0 * radius and abs(along) <= 3.0 * radius + 2.0 * sigma)
     spread = obj.covariance
     if spread is not None and np.shape(spread) == (3, 3) and np.isfinite(spread).all():
         cov = cov + spread
