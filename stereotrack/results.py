@@ -107,7 +107,11 @@ class TrackedBalls:
         return len(self.centres)
 
     def where(self, keep: np.ndarray) -> TrackedBalls:
+        """The balls ``keep`` marks; all of them (most selections, a dozen a frame: one colour, every track confirmed
+        and settled) are these same balls, not a copy (no stage writes into them)."""
         keep = np.asarray(keep, dtype=bool)
+        if keep.all():
+            return self
         return TrackedBalls(
             self.centres[keep].reshape(-1, 3),
             self.radii[keep],

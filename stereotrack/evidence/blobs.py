@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .kernels import component_boxes, mask_moments, subsampled
+from .kernels import component_measures, subsampled
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,20 +48,20 @@ def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarra
     small, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)
     # Labels only: OpenCV's per-component statistics cost several times the labelling itself. Labelled inside the
     # box of the set pixels (most of a mask is empty), from an even corner: OpenCV labels 2 x 2 blocks in raster
-    # order, so the labels are those of the whole mask.
-    labels = np.zeros(small.shape, np.int32)
+    # order, so the labels are those of the whole mask. OpenCV writes them into the box of the label image, whose
+    # margins alone are zeroed (the box was written twice, zeroed then copied: six label images a frame).
+    labels = np.empty(small.shape, np.int32)
+    labels[:y0], labels[y1:], labels[y0:y1, :x0], labels[y0:y1, x1:] = 0, 0, 0, 0
     n = 1
     if x1:
-        n, labels[y0:y1, x0:x1] = cv2.connectedComponents(small[y0:y1, x0:x1], connectivity=8, ltype=cv2.CV_32S)
-    area, boxes = component_boxes(labels[y0:y1, x0:x1], n)
-    boxes += np.array([x0, y0, x0, y0])
-    keep = area * scale * scale >= min_area
-    label_blob = np.full(n, -1)
-    label_blob[1:][keep] = np.arange(keep.sum())
-    boxes = boxes[keep]
-    areas, centres, size, second = mask_moments(mask, boxes, scale)  # each blob measured at full resolution
-    axes = _axes(second)
-    radii = 0.5 * size.max(axis=1) if len(size) else np.zeros(0)
+        box = labels[y0:y1, x0:x1]
+        n, written = cv2.connectedComponents(small[y0:y1, x0:x1], labels=box, connectivity=8, ltype=cv2.CV_32S)
+        if not np.shares_memory(written, labels):  # an OpenCV that made an array of its own
+            box[:] = written
+    # Which components are blobs, and each blob measured at full resolution (its moments, axes, size), in one call
+    label_blob, boxes, areas, centres, size, second, axes, radii = component_measures(
+        mask, labels[y0:y1, x0:x1], n, x0, y0, scale, min_area
+    )
     inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
     swept = streaks(areas, axes) & inside
@@ -148,14 +148,6 @@ def find_blobs(mask: np.ndarray, method: str = "components", min_area: int = 6, 
     raise ValueError(f"unknown blob method {method!r}")
 
 
-def _axes(second: np.ndarray) -> np.ndarray:
-    """Semi-axes (M x 2, major first) of the filled ellipses with these central second moments (xx, yy, xy):
-    a filled ellipse of semi-axes a, b has variances a^2 / 4 and b^2 / 4 along them."""
-    mean = 0.5 * (second[:, 0] + second[:, 1])
-    spread = np.sqrt(0.25 * (second[:, 0] - second[:, 1]) ** 2 + second[:, 2] ** 2)
-    return 2.0 * np.sqrt(np.maximum(np.column_stack([mean + spread, mean - spread]), 0.0))
-
-
 STREAK_ELONGATION = 2.0  # a blob this much longer than wide, ...
 STREAK_FILL = 0.8  # ... that fills its moments' ellipse this much, is a ball swept along a line (a capsule fills it 0.9-1.1)
 
@@ -186,6 +178,29 @@ def short_streaks(b: Blobs, mask: np.ndarray) -> np.ndarray:
     if short.any() and b.major is not None:
         short[short] = ~_uneven(mask, b.centres[short], b.major[short], b.axes[short])
     return short
+
+
+def minor_skew(b: Blobs, mask: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Per blob ``ids`` of ``mask`` (``b``, from find_blobs): the skewness of its pixels across its major axis (absolute,
+    0 for a blob mirror-symmetric about that axis). A ball swept along its path (a streak, a short blur) is a capsule,
+    as wide on either side of its path: about 0. A ball cut straight by something in front of it or by the image's edge
+    has its flat side on one side of the axis and its curved one on the other: a half disc 0.2-0.35, as elongated as
+    a short blur (1.8x) and as full. Measured in the box the blob's moments were (the box grown by one label cell)."""
+    out = np.zeros(len(ids))
+    if b.boxes is None or b.major is None:
+        return out
+    h, w = mask.shape
+    s = b.label_scale
+    for n, k in enumerate(np.asarray(ids, int)):
+        x0, y0 = max(int(b.boxes[k, 0]) * s - s, 0), max(int(b.boxes[k, 1]) * s - s, 0)
+        x1, y1 = min(int(b.boxes[k, 2]) * s + s, w), min(int(b.boxes[k, 3]) * s + s, h)
+        ys, xs = np.nonzero(mask[y0:y1, x0:x1])
+        if len(xs) < 3:
+            continue
+        across = (xs + x0 - b.centres[k, 0]) * -b.major[k, 1] + (ys + y0 - b.centres[k, 1]) * b.major[k, 0]
+        var = float(np.mean(across**2))
+        out[n] = abs(float(np.mean(across**3))) / max(var, 1e-9) ** 1.5
+    return out
 
 
 # A blob must fill this much of its moments' ellipse: a disc, a cut disc or a streak do, a ring or a scatter do not.

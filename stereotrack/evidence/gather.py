@@ -127,7 +127,7 @@ class CameraEvidence:
             fg_rows = _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX
             if own:  # the moving rows too; no map has a pixel outside these rows
                 rows = np.maximum(rows, foreground.max(axis=1)[fg_rows])
-            evidence_maps(
+            pale = evidence_maps(
                 in_range,
                 rows,
                 hsv if colour_table is not None or own else _NO_HSV,
@@ -144,7 +144,8 @@ class CameraEvidence:
             if colour_table is not None:
                 soft_integral = integral_image(soft)
             if streaky:
-                _streaks_only(moving, in_range, min_blob_area, rows)
+                if pale:
+                    _streaks_only(moving, in_range, min_blob_area, rows)
                 if faint is not None:
                     more = _faint_streaks(in_range, moving, faint, range_bounds(motion_range), (w, h))
                     if more is not None:
@@ -204,12 +205,9 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
     like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
     moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames). ``rows``: as
-    find_blobs takes them."""
-    pale = cv2.subtract(moving, in_range)  # the moving pixels out of the range (both maps 0/1)
-    if not cv2.countNonZero(pale):
-        return
+    find_blobs takes them. Called only when some moving pixel is out of the range (evidence_maps counts them)."""
     kept = _kept_streaks(moving, in_range, min_blob_area, rows)
-    cv2.subtract(moving, pale, dst=moving)  # every pale pixel out, then the streaks' back
+    cv2.bitwise_and(moving, in_range, dst=moving)  # every pale pixel out (both maps 0/1), then the streaks' back
     for ys, xs in kept:
         moving[ys, xs] = 1
 

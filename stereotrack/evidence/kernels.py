@@ -115,6 +115,41 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
+def component_measures(mask, labels, n, x0, y0, scale, min_area):
+    """Everything blobs._components measures of the components 1..n-1 of ``labels`` (a label image of the box at
+    (``x0``, ``y0``) of a ``scale``-times subsampled copy of the 0/1 ``mask``), in one call: which are blobs (their
+    subsampled area x scale^2 at least ``min_area``), label -> blob index (-1: background or a speck), and per blob
+    its box (label cells, end exclusive) and, measured on ``mask`` (mask_moments): pixel count, centroid, the size
+    of its set pixels, central second moments, the semi-axes of the filled ellipse with those moments (major first; a
+    filled ellipse of semi-axes a, b has variances a^2 / 4 and b^2 / 4 along them) and half its larger side. What
+    component_boxes, mask_moments and the numpy arithmetic between them gave, without a dozen small array calls per
+    blob finder (three a frame per camera and target)."""
+    area, box = component_boxes(labels, n)
+    label_blob = np.full(n, -1, np.int64)
+    m = 0
+    for c in range(n - 1):
+        if area[c] * scale * scale >= min_area:
+            label_blob[c + 1] = m
+            m += 1
+    boxes = np.empty((m, 4), np.int64)
+    for c in range(n - 1):
+        b = label_blob[c + 1]
+        if b >= 0:
+            boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3] = box[c, 0] + x0, box[c, 1] + y0, box[c, 2] + x0, box[c, 3] + y0
+    count, centre, size, second = mask_moments(mask, boxes, scale)
+    axes = np.empty((m, 2))
+    radii = np.empty(m)
+    for b in range(m):
+        mean = 0.5 * (second[b, 0] + second[b, 1])
+        d = second[b, 0] - second[b, 1]
+        spread = np.sqrt(0.25 * (d * d) + second[b, 2] * second[b, 2])
+        axes[b, 0] = 2.0 * np.sqrt(max(mean + spread, 0.0))
+        axes[b, 1] = 2.0 * np.sqrt(max(mean - spread, 0.0))
+        radii[b] = 0.5 * max(size[b, 0], size[b, 1])
+    return label_blob, boxes, count, centre, size, second, axes, radii
+
+
+@kernel
 def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
@@ -131,8 +166,10 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
       least as likely the ball's colour as what the background held there (where a ball was and a wall of its
       hue is now, the wall moved in no sense).
     Rows ``rows_in_range`` marks 0 are passed over: the caller marks the rows with a pixel in range and, with a
-    motion range, those with a foreground cell (most rows hold neither: the range is a few balls)."""
+    motion range, those with a foreground cell (most rows hold neither: the range is a few balls).
+    Returns how many moving pixels are out of the range (with a motion range: its paler pixels)."""
     h, w = in_range.shape
+    pale = 0
     use_table = table.shape[0] > 0
     use_fg = foreground.shape[0] > 0
     use_behind = use_table and use_fg and behind.shape[0] > 0
@@ -156,6 +193,9 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
                 if moves and use_behind and inside:
                     moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
                 moving[y, x] = 1 if moves else 0
+                if moves and not inside:
+                    pale += 1
+    return pale
 
 
 @kernel(inline="always")

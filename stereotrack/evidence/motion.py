@@ -63,6 +63,98 @@ def structure(image: np.ndarray, u: float, v: float, r: float) -> float:
     return float(np.hypot(gx[disc], gy[disc]).mean())
 
 
+# A white or grey ball at rest in a white room has neither a colour of its own nor motion: what shows it is its shading
+# and its rim, gradient that a flat wall lacks. On the background's grid (halved, 3x3 Gaussian), a ball's disc holds
+# gradients of 3-20 grey levels per pixel, a painted wall's texture under 2 and a floor's mostly under 2.5.
+SHADING_MIN = 2.5
+SHADING_VALUE = 0.75  # ... among pixels at least this share of the range's least value (a black plant's leaves are no white ball)
+SHADING_ASPECT = 1.5  # a patch of the map counts when its box is at most this elongated ...
+SHADING_FILL = 0.6  # ... and it fills this share of the ellipse in its box
+SHADING_MIN_RADIUS = 2.5  # pixels of the background's grid: a smaller patch is a speck of texture, a switch or a knob far off
+SHADING_EDGED = 0.7  # share of a patch that must show gradient itself (the rest: filled holes)
+SHADING_SQUARE = 0.9  # a patch filling more of its box is square
+SHADING_BUSY = 0.25  # at most this share of the ring around a patch shows gradient
+SHADING_CONTRAST = (
+    40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
+)
+SHADING_HOLE = 0.6  # a hole in the map (a ball's flat, lit centre) is filled when smaller than a disc of this many ball radii
+
+
+def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndarray:
+    """Where a white or grey ball (``target`` of every hue) shows by its shading alone: the pixels of ``image``
+    (BGR uint8 on the background's grid) whose brightness changes by SHADING_MIN grey levels per pixel or more and
+    whose colour could be the ball's (saturation at most the range's top, value at least SHADING_VALUE of its bottom),
+    with the holes smaller than a disc of SHADING_HOLE x ``near_px`` filled (a ball's lit centre is flat), kept in
+    the patches round like a ball and as wide as one between ``far_px`` and ``near_px`` radii (the ball's apparent
+    radius on this grid at the farthest and nearest depths). A wall's edges, a shelf's books and a floor's texture are
+    lines, networks and specks; a flat wall is empty. uint8 0/1."""
+    grey = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (3, 3), 0).astype(np.float32)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
+    edges = cv2.threshold(cv2.magnitude(gx, gy), 8.0 * SHADING_MIN, 1, cv2.THRESH_BINARY)[1].astype(np.uint8)  # Sobel weighs a step 8 times
+    low = int(np.ceil(SHADING_VALUE * target.hsv_min[2]))
+    pale = cv2.inRange(cv2.cvtColor(image, cv2.COLOR_BGR2HSV), (0, 0, low), (255, target.hsv_max[1], 255))  # 0 / 255
+    out = cv2.bitwise_and(edges, edges, mask=pale)
+    shaded = out.copy()  # before the holes are filled
+    h, w = out.shape
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - out, connectivity=4)  # the holes (label 0: the map itself)
+    x, y, bw, bh, area = stats.T
+    fill = (area <= np.pi * (SHADING_HOLE * near_px) ** 2) & (x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)
+    fill[0] = False
+    if fill.any():
+        out[fill[labels]] = 1
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(out, connectivity=8)
+    x, y, bw, bh, area = stats.T
+    wide, narrow = np.maximum(bw, bh) / 2.0, np.minimum(bw, bh) / 2.0
+    round_ = (wide <= SHADING_ASPECT * narrow) & (area >= SHADING_FILL * np.pi * wide * narrow)
+    keep = round_ & (narrow <= near_px * 1.3) & (wide >= max(far_px / 1.3, SHADING_MIN_RADIUS))
+    keep[0] = False
+    keep &= area <= SHADING_SQUARE * bw * bh  # a disc fills pi / 4 of its box, a switch or a socket all of it
+    if not keep.any():
+        return np.zeros_like(out)
+    candidates = keep[labels]  # the pixels of the patches still in question (a few balls' worth)
+    mine = labels[candidates]
+    # a flat disc (a door's knob, painted) shows its edge only: its filled hole is most of it
+    keep &= np.bincount(mine, weights=shaded[candidates], minlength=n) >= SHADING_EDGED * area
+    if keep.any():  # alone on something flat (a shelf's books, a poster's shapes are among other edges) ...
+        g = np.ceil(wide).astype(int)  # the ring around a patch's box, its half-width wide
+        box = (x, y, x + bw, y + bh)
+        grown = (np.maximum(x - g, 0), np.maximum(y - g, 0), np.minimum(x + bw + g, w), np.minimum(y + bh + g, h))
+        ring = np.maximum((grown[2] - grown[0]) * (grown[3] - grown[1]) - bw * bh, 1)
+        keep &= _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= SHADING_BUSY * ring
+    if keep.any():  # a sphere's lit side and its limb differ: a flat decal (a switch, a socket) is one grey
+        top, bottom = np.zeros(n, np.float32), np.full(n, 255, np.float32)
+        np.maximum.at(top, mine, grey[candidates])
+        np.minimum.at(bottom, mine, grey[candidates])
+        keep &= top - bottom >= SHADING_CONTRAST
+    # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
+    # would put the ball nearer than it is.
+    return cv2.erode(keep.astype(np.uint8)[labels], _CROSS)
+
+
+def still_only(shaded: np.ndarray, foreground: np.ndarray) -> np.ndarray:
+    """The patches of a shading map (uint8 0/1) that touch no moving cell: a moving ball is in the moving map already,
+    whose disc is the ball's own (its shading patch, merged with its trail or a neighbour's edge, would move its centre)."""
+    n, labels = cv2.connectedComponents(shaded, connectivity=8)
+    if n <= 1:
+        return shaded
+    touched = np.bincount(labels[cv2.dilate(foreground, None) > 0], minlength=n) > 0
+    touched[0] = True
+    return (~touched).astype(np.uint8)[labels]
+
+
+def _box_sums(table: np.ndarray, outer: tuple, inner: tuple) -> np.ndarray:
+    """Per box, the sum of a summed-area table's map between the ``outer`` box and the ``inner`` one (x0, y0, x1, y1 arrays)."""
+
+    def total(x0, y0, x1, y1):
+        return table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
+
+    return total(*outer) - total(*inner)
+
+
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+
+
 def halved(image: np.ndarray) -> np.ndarray:
     """The image on the background's grid: each SCALE x SCALE block's mean, rounded (cv2.resize's INTER_AREA by a
     whole factor; an odd last row or column is left out)."""

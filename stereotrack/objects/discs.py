@@ -17,7 +17,8 @@ import numpy as np
 
 from ..camera import Camera
 from ..evidence.blobs import Blobs
-from .kernels import ball_union_mismatch, posterior_depth
+from ..evidence.gather import CameraEvidence
+from .kernels import ball_union_mismatch, partial_disc_counts, posterior_depth
 
 
 def union_mismatch(cam: Camera, blobs: Blobs, blob: int, candidates: np.ndarray, others: np.ndarray, radius: float) -> np.ndarray:
@@ -64,3 +65,32 @@ def depth_on_ray(mismatch: np.ndarray, depths: np.ndarray, prior: float, prior_s
         np.asarray(mismatch, dtype=float), np.asarray(depths, dtype=float), float(prior), float(prior_sigma), float(scale)
     )
     return None if np.isnan(mean) else RayFit(mean, sigma)
+
+
+HIDDEN_COST = 0.1  # a pixel of a partly seen ball's disc that shows open background, against one of its evidence outside it
+RIM_WEIGHT = 2.0  # evidence in the rim just inside the disc's outline counts this much more for a depth
+PARTIAL_RING = 1.5  # the ring outside the disc whose evidence counts against a depth, out to this many radii
+PARTIAL_LEAST_SEEN = 0.25  # the best depth's disc must hold at least this share of its area in evidence ...
+PARTIAL_MOST_AROUND = 0.25  # ... and its ring at most this share of the disc's area: else something else is there
+
+
+def partial_mismatch(view: CameraEvidence, candidates: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per candidate position of a ball (T x 3) in a camera that sees only part of it (a thing in front of it,
+    the image's edge): (mismatch in pixels, evidence outside its disc, evidence inside it).
+
+    The evidence is the moving map (else the colour mask). Every pixel of it near the ball lies inside the
+    ball's disc: evidence in the ring just outside counts against a depth and evidence inside for it, one each;
+    a pixel inside the disc without it may be hidden, and counts ``HIDDEN_COST`` against, unless it has the
+    ball's colour (a static prop of that colour in front of the ball: not moving, and not against the ball).
+    Whatever hides part of the ball looks like open background, so several discs hold the visible parts; of
+    them the ball's has their curved edge on its outline: evidence in its rim counts ``RIM_WEIGHT`` more.
+    The disc that holds all of the ball's visible parts and little open background is at the ball's depth; the
+    ball-shape likelihood instead favours a smaller disc on the largest visible part, whose centre is off the
+    ball's by up to half its radius.
+    """
+    seen = view.moving if view.moving is not None else view.mask
+    maybe = view.mask if view.moving is not None else np.zeros_like(view.mask)
+    counts = partial_disc_counts(
+        np.ascontiguousarray(candidates, dtype=float), radius, *view.camera._kernel_arrays, seen, maybe, PARTIAL_RING
+    )
+    return counts[:, 0] - counts[:, 2] - RIM_WEIGHT * counts[:, 3] + HIDDEN_COST * counts[:, 1], counts[:, 0], counts[:, 2]

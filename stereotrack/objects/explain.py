@@ -24,8 +24,13 @@ is compared with a ball of the known radius at the object's depth:
   discs best make up the shared blob (discs.py; the particles' mean is
   biased towards the other ball). Where the shared blob says little (a ball
   wholly hidden behind a nearer one) and the particles spread wide along the
-  ray, the ball's track decides. Otherwise (occlusion in every view) it keeps
-  the particle mean.
+  ray, the ball's track decides. A blob that does not fill the disc its
+  larger side spans is a ball seen in part (something in front of it, the
+  image's edge) and not clean either; with one clean view, the depth is
+  where the ball's disc in the partial view holds every part that shows
+  (discs.partial_mismatch: the particles' mean is biased towards the
+  largest visible part). Otherwise (occlusion in every view) it keeps the
+  particle mean.
 """
 
 from __future__ import annotations
@@ -38,10 +43,10 @@ import numpy as np
 
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
-from ..evidence.blobs import short_streaks
+from ..evidence.blobs import minor_skew, short_streaks
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
-from .discs import RayFit, depth_on_ray, union_mismatch
+from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
 from .kernels import blob_signature
 
 
@@ -56,10 +61,14 @@ class ExplainSettings:
     # the ball's shaded side and a slow ball's trail (colour.motion_range), which stretch a ball's blob as a blur would
     # (white_ball tune seeds 0-19 with short blurs: median 0.837 -> 0.797, seeds 1, 6, 7, 18 down 0.06-0.12).
     short_streaks: bool = True
+    # A ball's blob that does not fill its disc is a ball seen in part (discs.partial_mismatch). Not for a target of every
+    # hue either: its shaded side is out of its range, so its blob is a crescent wherever it is (white_ball tune seeds
+    # 0-19 with the partial-view fit: median 0.837 -> 0.806, seeds 5, 8, 18 down 0.07-0.16).
+    partial_views: bool = True
 
     @classmethod
-    def of(cls, tracker: TrackerSettings, radius: float, short_streaks: bool = True) -> ExplainSettings:
-        return cls(radius, tracker.refine, tracker.disc_fit, short_streaks)
+    def of(cls, tracker: TrackerSettings, radius: float, short_streaks: bool = True, partial_views: bool = True) -> ExplainSettings:
+        return cls(radius, tracker.refine, tracker.disc_fit, short_streaks, partial_views)
 
 
 SIZE_TOLERANCE = 0.3  # sigma of log(blob radius / expected radius) in the ranking
@@ -69,10 +78,18 @@ CENTROID_SIGMA_PX = 0.5  # blob centroid noise of a shaded, sensor-noisy ball, p
 ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean
 DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
 DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
+STREAK_LONGER = math.log(1.2)  # a blob longer than its ball by this (log of half its larger side / the ball's radius) is a smear
+ROUND_MIN_PX = 6.0  # ... judged on blobs this wide or wider (fast_ball tune seed 2: balls of 2-5 pixels fill 0.4-0.8)
+ROUND_FILL = 0.7  # a blob fills at least this share of the disc its larger side spans, or it is a ball seen in part
+PARTIAL_DEPTHS = (0.75, 1.35)  # a partly seen view's fit searches these multiples of the particles' depth ...
+PARTIAL_PRIOR = 0.15  # ... under a prior this wide, as a share of that depth
+PARTIAL_PIXEL = 1.0  # pixels: how far off the partial views' discs may be; the fit claims no less depth error than this
+PARTIAL_TOLERANCE = 0.01  # pixels of its mismatch that make a depth e times less likely, as a share of the disc's area
 
 
 _NO_LABELS, _NO_LABEL_BLOB = np.zeros((1, 1), np.int32), np.full(1, -1)
 _DEPTH_STEPS = np.linspace(0.0, 1.0, 41)  # the disc fit's candidate depths, spread over its search range
+_PARTIAL_STEPS = np.linspace(0.0, 1.0, 121)  # the partial-view fit's: a step of 0.5 % of the depth, a pixel of disparity at 2 m
 
 
 def _merge(objs: Sequence[Object3D]) -> Object3D:
@@ -135,7 +152,7 @@ def explain(
     part of a ball behind them. Returns (kept objects, index of the kept
     object each input object went into, or -1 if it was dropped).
     """
-    cameras, blobs, rays = [v.camera for v in views], [v.blobs for v in views], [v.rays for v in views]
+    cameras, blobs = [v.camera for v in views], [v.blobs for v in views]
     predicted = predicted.centres if predicted is not None else None
     occluders = (occluders.centres, occluders.radii) if occluders is not None else None
     into = np.full(len(objects), -1)
@@ -177,7 +194,7 @@ def explain(
     if settings.refine:
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
         swept = _swept(views, predicted, settings.radius, settings.short_streaks)
-        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept)
+        out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, views, settings, predicted, swept)
     return out, into
 
 
@@ -231,20 +248,57 @@ def _partly_hidden(positions: np.ndarray, cameras, radius: float, occluders) -> 
     return out
 
 
-def _clean_views(
-    i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, settings: ExplainSettings
-):
-    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size and not cut by a nearer
-    ball of another colour, [(camera, mates)] where it shares its blob)."""
+def _clean_views(i: int, n: int, kept: list[int], blob_ids: np.ndarray, log_ratio: np.ndarray, hidden: np.ndarray, whole: np.ndarray):
+    """(cameras where kept ball i (the n-th kept) has a blob of its own, of its size, round and full (``whole``) and
+    not cut by a nearer ball of another colour, [(camera, mates)] where it shares its blob, cameras where it has a
+    blob of its own that is not clean: a ball seen in part, or merged with something of its colour, whose moving
+    part the partial-view fit reads)."""
     shared = _mates(i, kept, blob_ids)  # a blob shared with another ball: its centroid is of neither
     in_shared = {j for j, _ in shared}
-    good = [
-        j
-        for j in range(blob_ids.shape[1])
-        # unseen, clipped or occluded in a camera: not clean there
-        if j not in in_shared and blob_ids[i, j] >= 0 and abs(log_ratio[i, j]) < REFINE_TOLERANCE and not hidden[n, j]
-    ]
-    return good, shared
+    own = [j for j in range(blob_ids.shape[1]) if j not in in_shared and blob_ids[i, j] >= 0 and not hidden[n, j]]
+    # unseen, clipped or occluded in a camera: not clean there
+    good = [j for j in own if abs(log_ratio[i, j]) < REFINE_TOLERANCE and whole[i, j]]
+    return good, shared, [j for j in own if j not in good]
+
+
+def _whole(blob_ids: np.ndarray, blobs, log_ratio: np.ndarray) -> np.ndarray:
+    """Per object and camera: its blob there fills the disc its larger side spans (ROUND_FILL), or is longer than the
+    ball (a smear: a fast ball's streak, blurred). A ball cut by something in front of it, or by the image's edge,
+    keeps its extent across the cut and so looks ball-sized, but its centroid lies up to half a radius off the
+    ball's centre (static_props tune seed 0: a pole splits a ball in one view, 0.2 m of depth error); it is never
+    longer than the ball (``log_ratio``: the blob's larger side against the ball's size at the object's depth)."""
+    fill = np.ones(blob_ids.shape)
+    for j, b in enumerate(blobs):
+        on = blob_ids[:, j] >= 0
+        ids = blob_ids[on, j]
+        fill[on, j] = b.areas[ids] / (np.pi * np.maximum(b.radii[ids], 0.5) ** 2)
+        fill[on, j] = np.where(b.radii[ids] >= ROUND_MIN_PX, fill[on, j], 1.0)  # a few pixels' share says nothing
+    return (fill >= ROUND_FILL) | (np.nan_to_num(log_ratio) > STREAK_LONGER)
+
+
+LOPSIDED = 0.12  # a blob's skewness across its major axis from which it is a ball cut straight, not one blurred
+
+
+def _blurred(whole: np.ndarray, smeared: np.ndarray, blob_ids: np.ndarray, views: Sequence[CameraEvidence], swept) -> np.ndarray:
+    """Per object and camera: its blob there, not ``whole``, is a ball blurred along its path: a streak or a short blur
+    (``swept``) as wide on either side of its axis (blobs.minor_skew), or any blob of a ball ``smeared`` in another
+    view (a fast ball). A half disc (a ball cut by a prop or the image's edge) is as elongated and as full as a short
+    blur, and at its depth no narrower than one (a fast ball's blur is thinned by the background it swept over: 0.5-0.7
+    of its width in fast_ball tune seed 1, where a half disc's is 0.53), but it has a flat side and a curved one: its
+    skewness across its axis is 0.15-0.4 (static_props tune seeds 0, 4, 7, 11), a short blur's 0.0-0.13 (fast_ball,
+    motion_blur). A blur's centroid is its ball's (main's short-blur rule); a half disc's is not, and the partial-view
+    fit reads it (fast_ball tune seed 1 fell 0.833 -> 0.625 with the fit on its short blurs)."""
+    out = np.zeros(whole.shape, bool)
+    fast = smeared.any(axis=1)
+    for j, v in enumerate(views):
+        ask = (blob_ids[:, j] >= 0) & ~whole[:, j]
+        out[ask & fast, j] = True
+        ask &= ~fast
+        ask[ask] = swept[j][blob_ids[ask, j]]
+        if ask.any():
+            idx = np.flatnonzero(ask)
+            out[idx, j] = minor_skew(v.blobs, v.counted if v.counted is not None else v.mask, blob_ids[idx, j]) < LOPSIDED
+    return out
 
 
 STREAK_THINNING = math.log(2.0)  # a streak may be down to half its ball's width in range: ...
@@ -361,7 +415,7 @@ def _centroid_covs(b, ids: np.ndarray, streak: np.ndarray) -> np.ndarray:
     return covs
 
 
-def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays, settings, predicted, swept) -> list[Object3D]:
+def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, predicted, swept) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
     Balls with two or more clean views are triangulated together (one call per set of cameras); a
@@ -369,8 +423,16 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
     then placed against the other balls' discs there, one ball at a time, each against the latest
     positions of the others.
     """
+    cameras, blobs, rays = [v.camera for v in evidence], [v.blobs for v in evidence], [v.rays for v in evidence]
+    whole = _whole(blob_ids, blobs, log_ratio) | (not settings.partial_views)  # before streaks are measured by their width
+    smeared = whole & (np.nan_to_num(log_ratio) > STREAK_LONGER)
+    whole |= _blurred(whole, smeared, blob_ids, evidence, swept)
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
-    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, settings) for n, i in enumerate(kept)}
+    views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
+    # A ball longer than itself in some view is fast (a streak, blurred), not hidden: its disc would hold none of its
+    # views (fast_ball tune seed 7 fell 0.534 -> -0.155 with the partial-view fit on its streaks).
+    fast = [i for i in kept if smeared[i].any() or not settings.partial_views]  # (or no partial views for this target)
+    views.update({i: (*views[i][:2], []) for i in fast})
     out = {i: merged[i] for i in kept}
     by_cameras: dict[tuple[int, ...], list[int]] = {}
     for i in kept:
@@ -389,17 +451,21 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, cameras, blobs, rays,
                 out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:
-        out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted)
+        out[i] = _one_view(
+            merged[i], i, *views[i][:2], blob_ids, cameras, blobs, rays, settings, predicted, partial=views[i][2], evidence=evidence
+        )
     if settings.disc_fit:
         positions = {i: o.position for i, o in out.items()}
         for i in one_view:
             if views[i][1]:
-                out[i] = _one_view(merged[i], i, *views[i], blob_ids, cameras, blobs, rays, settings, predicted, positions)
+                out[i] = _one_view(merged[i], i, *views[i][:2], blob_ids, cameras, blobs, rays, settings, predicted, positions)
                 positions[i] = out[i].position
     return [out[i] for i in kept]
 
 
-def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None) -> Object3D:
+def _one_view(
+    obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, predicted=None, positions=None, partial=(), evidence=None
+) -> Object3D:
     """One clean view: its ray fixes the direction, the particles (or the shared blobs) the distance along it.
 
     The covariance says so (tight across the ray, the depth's uncertainty
@@ -421,6 +487,10 @@ def _one_view(obj, i, good, shared, blob_ids, cameras, blobs, rays, settings, pr
     # The shared blob itself measures the depth, wherever the ball shows in it; that depth is only
     # the prior for the fit (it decides where the blob cannot, e.g. behind a nearer ball).
     fit = _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) if shared else None
+    if not shared and partial and evidence is not None:
+        # The other views see the ball only in part: the particles' depth is pulled to where their smaller discs on
+        # the visible parts put it. The disc that holds what shows of the ball, and nothing around it, says where.
+        fit = _fit_partial_views(o, d, own, [evidence[k] for k in partial], settings.radius)
     if fit is not None:
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
@@ -447,3 +517,29 @@ def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, s
         z = float(cameras[j].depth((o + depth * d)[None])[0])
         area += np.pi * cameras[j].apparent_radius(settings.radius, max(z, 0.05)) ** 2
     return depth_on_ray(mismatch, depths, depth, np.sqrt(along), DISC_FIT_TOLERANCE * area)
+
+
+def _fit_partial_views(o, d, depth, views: Sequence[CameraEvidence], radius: float) -> RayFit | None:
+    """Depth along a clean view's ray at which the ball's disc in the ``views`` that see it in part holds their
+    evidence there and little else (discs.partial_mismatch); None when they show too little of a ball there, or
+    something beside it."""
+    depths = depth * (PARTIAL_DEPTHS[0] + (PARTIAL_DEPTHS[1] - PARTIAL_DEPTHS[0]) * _PARTIAL_STEPS)
+    candidates = o + depths[:, None] * d
+    mismatch, around, inside, area = (np.zeros(len(depths)) for _ in range(4))
+    for v in views:
+        m, a, h = partial_mismatch(v, candidates, radius)
+        mismatch += m
+        around += a
+        inside += h
+        area += np.pi * v.camera.apparent_radius(radius, np.maximum(v.camera.depth(candidates), 0.05)) ** 2
+    best = int(np.argmin(mismatch))
+    if not np.isfinite(mismatch[best]) or inside[best] < PARTIAL_LEAST_SEEN * area[best] or around[best] > PARTIAL_MOST_AROUND * area[best]:
+        return None
+    fit = depth_on_ray(mismatch, depths, depth, PARTIAL_PRIOR * depth, PARTIAL_TOLERANCE * area[len(depths) // 2])
+    if fit is None:
+        return None
+    # A pixel of the disc's slide along the epipolar line is 4 cm of depth at 2.7 m (hue_wall tune seed 5, a ball of
+    # 7 pixels): the fit is good to about that, and a tighter claim pulls the track off with the odd pixel's error.
+    uv = views[0].camera.project(candidates[[0, -1]])[0]
+    per_metre = float(np.linalg.norm(uv[1] - uv[0])) / max(depths[-1] - depths[0], 1e-9)
+    return replace(fit, sigma=max(fit.sigma, PARTIAL_PIXEL / max(per_metre, 1e-9)))

@@ -486,3 +486,45 @@ def posterior_depth(mismatch, depths, prior, prior_sigma, scale):
     for i in range(w.shape[0]):
         second += w[i] * (depths[i] - mean) ** 2
     return mean, math.sqrt(second / total)
+
+
+@kernel
+def partial_disc_counts(candidates, radius, R, t, K, k, tilt, seen, maybe, ring):
+    """Per candidate ball position (T x 3), in one camera whose view of the ball is partial, four pixel counts
+    (T x 4): of ``seen`` (H x W, the ball's evidence there) in the ring just outside the ball's disc, out to
+    ``ring`` radii (a ball's own pixels all lie inside its disc, wherever the rest of it is hidden); inside the
+    disc, those neither ``seen`` nor ``maybe`` (what may be the ball behind something of its colour) sets (open
+    background where the ball should show, or whatever hides it); inside the disc, those ``seen`` sets; and of
+    these, those in the rim just inside the outline (up to 2 pixels in: where the visible part's curved edge
+    lies when the disc is the ball's). The disc's last pixel inside the outline is not counted empty, and the
+    first outside not as ring (its edge blurs); pixels outside the image count for nothing. +inf behind the camera."""
+    uv, front, z = project_points(candidates, R, t, K, k, tilt)
+    f = 0.5 * (K[0, 0] + K[1, 1])
+    h, w = seen.shape
+    out = np.full((candidates.shape[0], 4), np.inf)
+    for i in range(candidates.shape[0]):
+        if not front[i]:
+            continue
+        u, v = uv[i, 0], uv[i, 1]
+        r = f * radius / z[i]
+        outer = ring * r
+        disc2, inside2, edge2, outer2, rim2 = r * r, max(r - 1.0, 0.0) ** 2, (r + 1.0) ** 2, outer * outer, max(r - 2.0, 0.0) ** 2
+        x0, x1 = max(int(math.floor(u - outer)), 0), min(int(math.ceil(u + outer)) + 1, w)
+        y0, y1 = max(int(math.floor(v - outer)), 0), min(int(math.ceil(v + outer)) + 1, h)
+        around, empty, hits, rim = 0.0, 0.0, 0.0, 0.0
+        for y in range(y0, y1):
+            dy = y - v
+            for x in range(x0, x1):
+                dx = x - u
+                d2 = dx * dx + dy * dy
+                if d2 <= disc2:
+                    if seen[y, x] != 0:
+                        hits += 1.0
+                        if d2 >= rim2:
+                            rim += 1.0
+                    elif maybe[y, x] == 0 and d2 <= inside2:
+                        empty += 1.0
+                elif edge2 <= d2 <= outer2 and seen[y, x] != 0:
+                    around += 1.0
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = around, empty, hits, rim
+    return out

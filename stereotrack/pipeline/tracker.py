@@ -20,7 +20,7 @@ from ..errors import StereotrackError
 from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, Faint, every_nth, on_grid
-from ..evidence.motion import BackgroundModel, halved
+from ..evidence.motion import SCALE, BackgroundModel, halved, shading, still_only
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -56,7 +56,9 @@ class Tracker:
         root = np.random.default_rng(s.seed)
         self.populations = {t.name: Population(rig.cameras, s, t, np.random.default_rng(root.integers(2**63))) for t in config.targets}
         self.cluster_settings = {t.name: ClusterSettings.of(s, t.radius) for t in config.targets}
-        self.explain_settings = {t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue) for t in config.targets}
+        self.explain_settings = {
+            t.name: ExplainSettings.of(s, t.radius, short_streaks=not t.any_hue, partial_views=not t.any_hue) for t in config.targets
+        }
         self.cluster_rng = np.random.default_rng(root.integers(2**63))
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.radius = {t.name: t.radius for t in config.targets}
@@ -179,6 +181,7 @@ class Tracker:
         small, cm, small_halved = colours if colours is not None else self._colours(j, image)
         foreground = self.backgrounds[j].update(small, balls, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
+        shaded = self._shaded(j, small_halved, foreground)
         views = {
             t.name: CameraEvidence.from_mask(
                 cam,
@@ -186,7 +189,7 @@ class Tracker:
                 None,
                 s.blob_method,
                 max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
-                foreground,
+                shaded[t.name] if t.name in shaded else foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 self._colour_table(t, j, cm, confirmed),
                 cm.hsv,
@@ -205,6 +208,21 @@ class Tracker:
             return None
         return Faint(bg.faint, small_halved, bg.behind, self.bounds[target.name])
 
+    def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> dict[str, np.ndarray]:
+        """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their
+        shading added (motion.shading): a white ball at rest in a white room moves no more than the wall and has its
+        colour, and counts as moving where its shading shows. Empty without motion or such a target."""
+        if foreground is None or small_halved is None:
+            return {}
+        out = {}
+        cam = self.evidence_cameras[j]
+        for t in self.config.targets:
+            if t.any_hue:
+                seen = cam.focal_px * t.radius / SCALE  # the ball's apparent radius on the background's grid at 1 m
+                near, far = seen / max(self.config.tracker.d_min, SHADING_NEAR), seen / self.config.tracker.d_max
+                out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
+        return out
+
     def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
         """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
         model learns this frame, the ball's colours under the confirmed tracks of the target."""
@@ -217,6 +235,9 @@ class Tracker:
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
         return table
+
+
+SHADING_NEAR = 0.5  # metres: the nearest a white ball's shading map expects it (its holes are filled up to its lit centre there)
 
 
 HALF_GRID_MIN_WIDTH = 1280  # automatic evidence_scale: images this wide or wider ...
@@ -259,6 +280,7 @@ def warm_up() -> None:
     tracker follows a tiny drawn scene made to visit every stage's branches
     (two colours; a pink ball partly behind an orange one in one view; two
     pink balls sharing a blob in one view and apart in the other, so the disc
+    fit runs; a pink ball cut by a grey bar in one view, so the partial-view
     fit runs; tracks confirmed, so exclusion and the Kalman steps run). Every
     kernel is then compiled with the argument types a real run passes;
     tests/test_kernels.py checks that each one was, and that a real run
@@ -289,6 +311,7 @@ def warm_up() -> None:
             ("pink", behind + drift),
             ("pink", np.array([0.3, 1.8, 0.1]) - drift),
             ("orange", np.array([0.27, 1.6, 0.1]) - drift),
+            ("pink", cut := np.array([-0.35, 1.4, -0.15]) + drift),
         ]
         images = []
         for cam in cams:
@@ -297,6 +320,10 @@ def warm_up() -> None:
                 uv, _, z = cam.view(centre[None])
                 r = cam.apparent_radius(radius, z[0])
                 cv2.circle(img, (int(round(uv[0, 0])), int(round(uv[0, 1]))), max(1, int(round(r))), colours[name].tolist(), -1)
+            if cam is cams[1]:  # a grey bar hides the left half of one ball in this view only
+                uv, _, z = cam.view(cut[None])
+                r = cam.apparent_radius(radius, z[0])
+                cv2.rectangle(img, (int(uv[0, 0] - r - 2), int(uv[0, 1] - r - 2)), (int(uv[0, 0]), int(uv[0, 1] + r + 2)), (60, 60, 60), -1)
             images.append(img)
         tracker.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from stereotrack.evidence.blobs import ball_like, find_blobs
+from stereotrack.evidence.blobs import ball_like, find_blobs, minor_skew, short_streaks
 
 F, R = 554.0, 0.035  # focal length in pixels, ball radius in metres: 19 px wide at 1 m, 3.9 px at 5 m
 
@@ -144,3 +144,21 @@ def test_a_small_ball_touching_a_bigger_one_is_not_a_streak():
     b, s = find_blobs(m), find_blobs(streak)
     assert len(b) == 1 and b.ball_radii()[0] > 20  # the pair's size, not a streak's width
     assert len(s) == 1 and s.ball_radii()[0] < 8
+
+
+def test_a_half_disc_is_lopsided_across_its_axis_and_a_short_blur_is_not():
+    """A ball cut straight by a prop in front of it and a ball blurred to 1.6-1.9 times its width along its path: both
+    are short blurs to their shape alone (as long, as full, as even), but the half disc has a flat side and a curved one
+    across its major axis, the blur a ball's round end on either side of its path."""
+    m = np.zeros((480, 640), np.uint8)
+    for x, r in ((100, 7), (250, 10), (420, 14)):
+        cv2.circle(m, (x, 100), r, 1, -1)
+        m[100 - r - 1 : 100 + r + 2, x - r - 1 : x] = 0  # its left half hidden
+        for t in np.linspace(-0.4, 0.4, 17):  # the ball swept along a slant: a blur
+            cv2.circle(m, (int(round(x + t * r)), int(round(300 + 0.75 * t * r))), r, 1, -1)
+    b = find_blobs(m)
+    halves, blurs = np.flatnonzero(b.centres[:, 1] < 200), np.flatnonzero(b.centres[:, 1] > 200)
+    assert len(halves) == 3 and len(blurs) == 3
+    assert short_streaks(b, m)[halves].all() and short_streaks(b, m)[blurs].all()  # alike to the short-blur rule
+    assert (minor_skew(b, m, halves) > 0.15).all(), minor_skew(b, m, halves)
+    assert (minor_skew(b, m, blurs) < 0.06).all(), minor_skew(b, m, blurs)

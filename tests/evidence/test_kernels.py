@@ -24,6 +24,28 @@ def test_component_boxes_and_mask_moments_match_opencv():
         assert np.allclose(second[i], (m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]))
 
 
+def test_component_measures_keep_the_blobs_and_measure_them_as_opencv_does():
+    """One call: the components at least min_area (label cells x scale^2) are blobs, numbered in label order, their boxes
+    moved by the label box's corner, measured on the full mask; semi-axes of the filled ellipse of those moments."""
+    rng = np.random.default_rng(5)
+    mask = (cv2.GaussianBlur(rng.random((240, 320)), (0, 0), 4) > 0.53).astype(np.uint8)
+    small = np.ascontiguousarray(mask[::2, ::2])
+    x0, y0 = 10, 6  # labelled inside a box of the subsampled mask
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(small[y0:, x0:], connectivity=8)
+    label_blob, boxes, count, centre, size, second, axes, radii = evidence_kernels.component_measures(mask, labels, n, x0, y0, 2, 24)
+    kept = stats[1:, cv2.CC_STAT_AREA] * 4 >= 24
+    assert 3 < kept.sum() < n - 1  # some specks left out
+    assert np.array_equal(label_blob, np.r_[-1, np.where(kept, np.cumsum(kept) - 1, -1)])
+    assert np.array_equal(boxes[:, :2], stats[1:, :2][kept] + (x0, y0))
+    assert np.array_equal(boxes[:, 2:] - boxes[:, :2], stats[1:, 2:4][kept])
+    c, ce, si, se = evidence_kernels.mask_moments(mask, boxes, 2)
+    assert np.array_equal(count, c) and np.array_equal(centre, ce) and np.array_equal(size, si) and np.array_equal(second, se)
+    for (xx, yy, xy), (a, b) in zip(second, axes):  # a filled ellipse of semi-axes a, b: variances a^2 / 4, b^2 / 4
+        var = np.linalg.eigvalsh([[xx, xy], [xy, yy]])
+        assert np.allclose((a * a / 4, b * b / 4), var[::-1], atol=1e-9)
+    assert np.array_equal(radii, 0.5 * size.max(axis=1))
+
+
 def _scene(rng, h=121, w=163):
     """A smooth random colour image (odd sizes: the nearest-neighbour maps must not assume even ones)."""
     bgr = cv2.GaussianBlur(rng.integers(0, 256, (h, w, 3), dtype=np.uint8), (0, 0), 3)
@@ -254,3 +276,25 @@ def test_the_subsampled_mask_is_numpys_strided_copy_and_skips_the_rows_said_empt
         small, *box = evidence_kernels.subsampled(mask, scale, rows)
         assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[1:]
     assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)[1:] == (0, 0, 0, 0)
+
+
+def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
+    """What the streak check needs to know before it labels anything (gather._streaks_only runs only when some are)."""
+    from stereotrack.config import Target
+    from stereotrack.evidence.colour import range_bounds, streak_range, target_mask
+    from stereotrack.evidence.gather import _NO_HSV, _NO_TABLE, _nearest
+
+    rng = np.random.default_rng(17)
+    hsv = _scene(rng)
+    target = Target("teal", (70, 90, 90), (100, 255, 255))
+    in_range = target_mask(hsv, target)
+    foreground = (rng.random((60, 81)) < 0.4).astype(np.uint8)
+    moving = np.zeros_like(in_range)
+    rows = np.ones(121, np.uint8)
+    pale = evidence_kernels.evidence_maps(
+        in_range, rows, hsv, _NO_TABLE, foreground, _nearest(60, 121), _nearest(81, 163), range_bounds(streak_range(target)),
+        _NO_TABLE, _NO_TABLE, moving, _NO_HSV,
+    )  # fmt: skip
+    out_of_range = cv2.countNonZero(cv2.subtract(moving, in_range))
+    assert 0 < out_of_range < cv2.countNonZero(moving)
+    assert pale == out_of_range

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
-from stereotrack.evidence.motion import BackgroundModel
+from stereotrack.evidence.motion import BackgroundModel, halved, shading, still_only
 from stereotrack.results import TrackedBalls
 from stereotrack.tracks.manager import SETTLED_FRAMES
 
@@ -174,3 +174,48 @@ def test_a_white_balls_ghost_fades_under_a_settled_track_a_white_ball_at_rest_st
         for _ in range(60):  # a white ball at rest under its track, 2 s: its shading keeps it foreground
             fg = bg.update(_white_room(cam, rng, [rest]), held(1))
         assert fg[rest[1] // 2 - 3 : rest[1] // 2 + 4, rest[0] // 2 - 3 : rest[0] // 2 + 4].mean() > 0.9
+
+
+def test_the_shading_map_shows_a_white_ball_at_rest_on_a_white_wall_and_no_flat_decal():
+    """A white ball at rest in a white room has neither a colour of its own nor motion: only its shading shows it
+    (a lit side and a darker limb). The shading map (motion.shading) holds its disc; a flat round decal on the wall of
+    the same size (one grey), a socket (square), a lit round thing among a shelf's edges, a wall's edge and the flat
+    wall do not."""
+    from stereotrack.config import Target
+
+    cam = default_rig().cameras[0]
+    white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
+    img = _white_room(cam, np.random.default_rng(3), [(160, 200)])
+    cv2.circle(img, (320, 200), 14, (235, 235, 235), -1)  # a flat round decal, brighter than the wall
+    cv2.circle(img, (400, 120), 6, (240, 240, 240), -1)  # a small one (all rim: one grey tells it)
+    cv2.rectangle(img, (460, 186), (488, 214), (240, 240, 240), -1)  # a socket
+    for x in range(100, 300, 12):  # a shelf of books ...
+        cv2.rectangle(img, (x, 320), (x + 8, 460), (90, 90, 90), -1)
+    cv2.circle(img, (200, 390), 14, (150, 150, 150), -1)  # ... and a round thing on it, lit like a ball
+    cv2.ellipse(img, (200, 390), (14, 14), 0, 180, 360, (245, 245, 245), -1)
+    cv2.line(img, (330, 300), (600, 300), (120, 120, 120), 3)  # a wall's edge
+    small = halved(img)
+    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
+    m = shading(small, white, seen / 0.5, seen / 5.0)
+    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+
+    def share(x, y, r=5):
+        return m[(xx - x / 2) ** 2 + (yy - y / 2) ** 2 <= r**2].mean()
+
+    assert share(160, 200) > 0.9  # the ball
+    for x, y in ((320, 200), (400, 120), (474, 200), (200, 390)):
+        assert share(x, y) == 0
+    assert m[145:155].sum() == 0  # the edge
+    assert m.sum() < 2 * np.pi * 8**2  # nothing but the ball
+
+
+def test_only_shading_patches_that_touch_no_moving_cell_are_added():
+    """A moving white ball is in the moving map already; its shading patch (merged with its trail, or an edge beside it)
+    would move its centre. Only the still patches are added (motion.still_only)."""
+    shaded = np.zeros((60, 80), np.uint8)
+    cv2.circle(shaded, (20, 30), 6, 1, -1)  # a ball at rest
+    cv2.circle(shaded, (60, 30), 6, 1, -1)  # a moving ball ...
+    foreground = np.zeros_like(shaded)
+    cv2.circle(foreground, (63, 30), 5, 1, -1)  # ... in the moving map
+    kept = still_only(shaded, foreground)
+    assert kept[30, 20] == 1 and kept[:, 40:].sum() == 0
