@@ -8,7 +8,7 @@ explain-away looks the blobs up, the viewer draws the rays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 
 import cv2
@@ -36,15 +36,20 @@ class Seeds:
         return len(self.centres)
 
 
+NO_OTHERS = np.zeros((0, 7), np.int64)  # no other coloured target
+
+
 @dataclass(frozen=True, eq=False)
 class Faint:
     """A camera's faint changes (motion.py's ``faint`` map), the frame and the background on that grid (BGR), and
-    the target's range (colour.range_bounds): where a streak too pale for the foreground's threshold is looked for."""
+    the target's range (colour.range_bounds): where a streak too pale for the foreground's threshold is looked for;
+    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (kernels.pale_cells)."""
 
     cells: np.ndarray
     image: np.ndarray
     behind: np.ndarray
     bounds: np.ndarray
+    others: np.ndarray = field(default_factory=lambda: NO_OTHERS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,7 +228,7 @@ def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tup
     if not cv2.countNonZero(faint.cells):
         return None
     cells = np.empty_like(faint.cells)
-    pale_cells(faint.cells, faint.image, faint.behind, streak, faint.bounds, cells)
+    pale_cells(faint.cells, faint.image, faint.behind, streak, faint.bounds, faint.others, cells)
     if not cv2.countNonZero(cells):
         return None
     marks = cv2.resize(cells, size, interpolation=cv2.INTER_NEAREST)

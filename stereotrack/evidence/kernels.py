@@ -360,13 +360,16 @@ UNMIX_MAX = 10  # a streak's pixel may show the ball for as little as 1 / UNMIX_
 
 
 @kernel
-def pale_cells(faint, image, behind, streak, target, out):
+def pale_cells(faint, image, behind, streak, target, others, out):
     """Per cell of the background's grid (``image``, this frame there, and ``behind``, the background, both BGR
     uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
     the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range), or the
     background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
     a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the
-    complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17)."""
+    complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17).
+    A cell whose change, 1 to UNMIX_MAX times over the background, lands in one of the ``others`` bounds (K x 7: the
+    other targets' ranges) is that target's edge, not a streak (an orange ball's rim over a wall, pale and reddish,
+    passes a pink ball's streak range)."""
     h, w = faint.shape
     for y in range(h):
         for x in range(w):
@@ -375,20 +378,29 @@ def pale_cells(faint, image, behind, streak, target, out):
                 out[y, x] = 0
                 continue
             b, g, r = np.float32(image[y, x, 0]), np.float32(image[y, x, 1]), np.float32(image[y, x, 2])
-            hh, ss, vv = _hsv(b, g, r)
-            if _in_bounds(hh, ss, vv, streak):
-                out[y, x] = mark
-                continue
             b0, g0, r0 = np.float32(behind[y, x, 0]), np.float32(behind[y, x, 1]), np.float32(behind[y, x, 2])
-            hit = 0
-            for k in range(2, UNMIX_MAX + 1):
-                cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)
-                if min(cb, cg, cr) < -0.5 or max(cb, cg, cr) > 255.5:
-                    break
-                hh, ss, vv = _hsv(cb, cg, cr)
-                if _in_bounds(hh, ss, vv, target):
-                    hit = mark
-                    break
+            hh, ss, vv = _hsv(b, g, r)
+            hit = mark if _in_bounds(hh, ss, vv, streak) else 0
+            if not hit:
+                for k in range(2, UNMIX_MAX + 1):
+                    cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)
+                    if min(cb, cg, cr) < -0.5 or max(cb, cg, cr) > 255.5:
+                        break
+                    hh, ss, vv = _hsv(cb, cg, cr)
+                    if _in_bounds(hh, ss, vv, target):
+                        hit = mark
+                        break
+            if hit and others.shape[0]:
+                for k in range(1, UNMIX_MAX + 1):
+                    cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)
+                    if min(cb, cg, cr) < -0.5 or max(cb, cg, cr) > 255.5:
+                        break
+                    hh, ss, vv = _hsv(cb, cg, cr)
+                    for o in range(others.shape[0]):
+                        if _in_bounds(hh, ss, vv, others[o]):
+                            hit = 0
+                    if not hit:
+                        break
             out[y, x] = hit
 
 

@@ -80,6 +80,10 @@ class Tracker:
         # Where each target's moving map may take pixels out of its range: a white ball's shaded side, a fast ball's streak
         self.moving_ranges = {t.name: (motion_range(t), None) if t.any_hue else (None, streak_range(t)) for t in config.targets}
         self.bounds = {t.name: range_bounds(t) for t in config.targets}
+        coloured = [t for t in config.targets if not t.any_hue]
+        self.other_bounds = {  # per target, the other coloured targets' ranges: their balls' edges are no faint streak
+            t.name: np.array([self.bounds[o.name] for o in coloured if o.name != t.name], np.int64).reshape(-1, 7) for t in config.targets
+        }
         self.last_time: float | None = None
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
@@ -206,7 +210,7 @@ class Tracker:
         bg = self.backgrounds[j] if self.backgrounds else None
         if bg is None or bg.faint is None or target.any_hue or bg.behind is None or small_halved is None:
             return None
-        return Faint(bg.faint, small_halved, bg.behind, self.bounds[target.name])
+        return Faint(bg.faint, small_halved, bg.behind, self.bounds[target.name], self.other_bounds[target.name])
 
     def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> dict[str, np.ndarray]:
         """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their

@@ -115,3 +115,26 @@ def test_a_faint_streak_that_mixes_to_grey_is_evidence_and_a_faint_disc_or_shado
     assert _faint_view(share, shape="disc").moving.sum() == 0
     assert _faint_view(0.035, colour=(0.0, 0.0, 0.0)).moving.sum() == 0
     assert _faint_view(share, ghost=True).moving.sum() == 0  # unchanged since the frame before
+
+
+def test_a_faint_cell_whose_change_points_to_another_targets_colour_is_no_streak():
+    """An orange ball's rim over a wall, pale and reddish, lies in a pink ball's streak range; its change from the wall
+    points to orange (tests/pipeline/test_tracker.py's crossing: it pulled the pink ball's blob in the view the orange one
+    hid it in). With the orange target's range among the others, only the pink streak's cell stays (marks 2: changed
+    from the frame before)."""
+    from stereotrack.evidence.kernels import pale_cells
+    from stereotrack.simulation.spec import BallSpec, RigSpec, SceneSpec
+    from stereotrack.simulation.trajectories import Line
+
+    line = Line((0.0, 1.5, 0.0), (0.1, 1.5, 0.0), period=4.0)
+    spec = SceneSpec("two", (BallSpec(line, colour="orange"), BallSpec(line, colour="pink")), RigSpec(), 30.0, 2)
+    targets = {t.name: t for t in spec.config().targets}
+    pink, orange = targets["pink"], targets["orange"]
+    behind = np.uint8([[[100, 85, 89], [120, 120, 120]]])  # a greyish wall
+    image = np.uint8([[[86, 89, 110], [129, 102, 153]]])  # the orange rim; 0.3 of a pink ball over the grey
+    faint = np.full((1, 2), 2, np.uint8)
+    out = np.zeros_like(faint)
+    pale_cells(faint, image, behind, range_bounds(streak_range(pink)), range_bounds(pink), np.zeros((0, 7), np.int64), out)
+    assert out.tolist() == [[2, 2]]  # both could be a pink streak ...
+    pale_cells(faint, image, behind, range_bounds(streak_range(pink)), range_bounds(pink), range_bounds(orange)[None], out)
+    assert out.tolist() == [[0, 2]]  # ... but the rim's change is orange's
