@@ -155,7 +155,10 @@ class CameraEvidence:
                     more = _faint_streaks(in_range, moving, faint, range_bounds(motion_range), (w, h))
                     if more is not None:
                         rows = np.maximum(rows, more[1])
-                        for ys, xs in _kept_streaks(more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), more[2]):
+                        least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
+                        for ys, xs in _kept_streaks(
+                            more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), more[2], least
+                        ):
                             moving[ys, xs] = 1
             if moving is not None:
                 moving_integral = integral_image(moving)
@@ -219,6 +222,7 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
 
 FRESH_SHARE = 0.5  # a faint streak blob must have changed from the frame before in this share of its pixels at least
 KNOWN_SHARE = 0.2  # a faint streak blob with more of its pixels in the moving map or the range than this is no new streak
+FAINT_MIN_CELLS = 6  # a faint streak keeps at least this many of the background's cells' worth of pale pixels
 
 
 def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tuple[int, int]) -> tuple | None:
@@ -246,12 +250,15 @@ def _kept_streaks(
     rows: np.ndarray | None,
     known: np.ndarray | None = None,
     marks: np.ndarray | None = None,
+    least: int = 0,
 ) -> list:
     """The pale pixels (out of the range) of ``moving``'s blobs that are streaks, mostly that pale, with fewer pixels
     in range around them than pale ones (_streaks_only), as (ys, xs) per blob; with ``known`` (0/1), only of blobs
     mostly new there (KNOWN_SHARE): a streak the moving map holds already keeps its width (the faint halo around it
     would widen it, and a streak's width is its ball's depth: fast_ball tune seed 13 a third of a metre near); with
-    the faint cells' ``marks``, only of blobs mostly changed from the frame before (FRESH_SHARE)."""
+    the faint cells' ``marks``, only of blobs mostly changed from the frame before (FRESH_SHARE), and keeping ``least``
+    pale pixels at least (FAINT_MIN_CELLS: the faint streaks of fast_ball tune seeds 14, 17 keep 140-720 pixels, 35 cells
+    and more; a pair of faint cells is noise, which seeded a false track in hands tune seed 19)."""
     blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
     kept = []
@@ -270,7 +277,7 @@ def _kept_streaks(
             continue
         grow = int(np.ceil(blobs.axes[k, 0]))  # and no more of the ball's colour around it (its length again on every side)
         around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
-        if around < pale_share * blobs.areas[k]:
+        if around < pale_share * blobs.areas[k] and np.count_nonzero(paler) >= least:
             kept.append((ys[paler], xs[paler]))
     return kept
 

@@ -63,6 +63,9 @@ LAVENDER = (205.0, 180.0, 190.0)  # BGR: a wall of about the complementary colou
 YELLOW_GREEN = cv2.cvtColor(np.uint8([[[40, 200, 200]]]), cv2.COLOR_HSV2BGR)[0, 0].astype(float)
 
 
+SPECK = (200, 240), (207, 240)  # a streak-shaped speck of a few faint cells (noise, hands tune seed 19)
+
+
 def _faint_view(share: float, colour=YELLOW_GREEN, wall=LAVENDER, shape="streak", faint: bool = True, ghost: bool = False):
     """The evidence of a yellow-green target on a lavender wall after 20 calm frames, with a far fast ball's streak in
     the last: the wall and the ball mixed, the ball ``share`` of the exposure (drawn as a 4-pixel-wide line, or a disc).
@@ -81,6 +84,8 @@ def _faint_view(share: float, colour=YELLOW_GREEN, wall=LAVENDER, shape="streak"
         image = room()
         if shape == "streak":
             cv2.line(image, (200, 240), (240, 244), mixed, 4)
+        elif shape == "speck":
+            cv2.line(image, *SPECK, mixed, 2)
         else:
             cv2.circle(image, (220, 242), 8, mixed, -1)
         return image
@@ -138,3 +143,13 @@ def test_a_faint_cell_whose_change_points_to_another_targets_colour_is_no_streak
     assert out.tolist() == [[2, 2]]  # both could be a pink streak ...
     pale_cells(faint, image, behind, range_bounds(streak_range(pink)), range_bounds(pink), range_bounds(orange)[None], out)
     assert out.tolist() == [[0, 2]]  # ... but the rim's change is orange's
+
+
+def test_a_faint_speck_of_a_few_cells_is_no_streak(monkeypatch):
+    """A streak-shaped speck of faint cells that unmix to the ball's colour is noise (hands tune seed 19: two such cells
+    by a hand seeded a false track); a far fast ball's faint streak covers dozens of cells (fast_ball tune seeds 14, 17)."""
+    from stereotrack.evidence import gather
+
+    assert _faint_view(0.09, shape="speck").moving.sum() == 0
+    monkeypatch.setattr(gather, "FAINT_MIN_CELLS", 0)
+    assert _faint_view(0.09, shape="speck").moving.sum() > 0  # what the rule takes out
