@@ -41,8 +41,6 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 SWEPT_CONFIRM_RADII = (
     2.0  # a first object at streaks (Object3D.swept) whose position is this sharp (one sigma, ball radii) confirms a track
 )
-FLOOR_RADIUS_PX = 4.0  # a ball that looks smaller than this (pixels, first camera) ...
-FLOOR_PIXEL_SIGMA = 0.5  # ... is known in depth no better than centroids this sharp (pixels) triangulate (TrackManager._depth_floor)
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
@@ -173,7 +171,7 @@ class TrackManager:
         for target, idx in by_target.items():
             objs = [objects[i] for i in idx]
             z = np.array([o.position for o in objs], float).reshape(-1, 3)
-            R = self._depth_floor(z, self._measurement_covs(objs), self.radius.get(target, 0.0))
+            R = self._measurement_covs(objs)
             free = np.ones(len(objs), bool)
             # Confirmed (and coasting) tracks choose first, so a clutter track never steals a ball's object.
             for stage in (True, False):
@@ -246,36 +244,6 @@ class TrackManager:
         R = np.eye(3) * self.settings.measurement_sigma**2 + 0.5 * (covs + covs.transpose(0, 2, 1))
         if self.settings.measurement_sigma <= 0:  # zero noise everywhere: keep the filter invertible
             R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
-        return R
-
-    def _depth_floor(self, z: np.ndarray, R: np.ndarray, radius: float) -> np.ndarray:
-        """``R`` (M x 3 x 3) topped up along the first camera's viewing ray to what centroids known to
-        FLOOR_PIXEL_SIGMA pixels in every camera triangulate to, for objects whose ball looks smaller than FLOOR_RADIUS_PX
-        there: a far ball's particles judge a disc two pixels wide, and their mean claimed its depth to 4 cm where it
-        was 0.5 m off at 18 m, so the track left the ball (fast_ball tune seed 3; 0.5 pixels is 0.5 m there)."""
-        if self.rig is None or len(self.rig.cameras) < 2 or not len(z) or radius <= 0:
-            return R
-        cams = self.rig.cameras
-        _, front, depth = cams[0].view(z)
-        far = front & (cams[0].apparent_radius(radius, depth) < FLOOR_RADIUS_PX)
-        if not far.any():
-            return R
-        R = R.copy()
-        steps = np.vstack([np.eye(3), -np.eye(3)]) * 1e-3  # metres
-        for i in np.flatnonzero(far):
-            info = np.zeros((3, 3))
-            for cam in cams:
-                uv, ok, _ = cam.view(z[i] + steps)
-                if ok.all():
-                    J = (uv[:3] - uv[3:]).T / 2e-3  # 2 x 3 pixels per metre
-                    info += J.T @ J / FLOOR_PIXEL_SIGMA**2
-            if np.linalg.cond(info) > 1e12:
-                continue
-            d = z[i] - cams[0].centre
-            d /= np.linalg.norm(d)
-            need = float(d @ np.linalg.inv(info) @ d - d @ R[i] @ d)
-            if need > 0:
-                R[i] += need * np.outer(d, d)
         return R
 
     def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float) -> list[tuple[int, int, bool]]:
