@@ -363,7 +363,9 @@ UNMIX_MAX = 10  # a streak's pixel may show the ball for as little as 1 / UNMIX_
 def pale_cells(faint, image, behind, streak, target, others, out):
     """Per cell of the background's grid (``image``, this frame there, and ``behind``, the background, both BGR
     uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
-    the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range), or the
+    the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range) where the
+    background's is not (motion_blur tune seed 15: a faint blob where the frame before's streak was, which the background
+    had learnt in part, passed), or the
     background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
     a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the
     complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17).
@@ -380,7 +382,10 @@ def pale_cells(faint, image, behind, streak, target, others, out):
             b, g, r = np.float32(image[y, x, 0]), np.float32(image[y, x, 1]), np.float32(image[y, x, 2])
             b0, g0, r0 = np.float32(behind[y, x, 0]), np.float32(behind[y, x, 1]), np.float32(behind[y, x, 2])
             hh, ss, vv = _hsv(b, g, r)
-            hit = mark if _in_bounds(hh, ss, vv, streak) else 0
+            hit = 0
+            if _in_bounds(hh, ss, vv, streak):  # of a streak's colour, over a background that is not (that says nothing)
+                h0, s0, v0 = _hsv(b0, g0, r0)
+                hit = 0 if _in_bounds(h0, s0, v0, streak) else mark
             if not hit:
                 for k in range(2, UNMIX_MAX + 1):
                     cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)

@@ -153,3 +153,23 @@ def test_a_faint_speck_of_a_few_cells_is_no_streak(monkeypatch):
     assert _faint_view(0.09, shape="speck").moving.sum() == 0
     monkeypatch.setattr(gather, "FAINT_MIN_CELLS", 0)
     assert _faint_view(0.09, shape="speck").moving.sum() > 0  # what the rule takes out
+
+
+def test_a_faint_change_over_a_wall_of_a_streaks_colour_is_no_streak_by_its_colour():
+    """A pale pink wall lies in a pink ball's streak range: a faint change there (the ghost of the streak the frame
+    before, which the background learnt in part: motion_blur tune seed 15) is of a streak's colour whatever it is. Only
+    a cell whose background is not of that colour tells a streak by its colour."""
+    from stereotrack.evidence.kernels import pale_cells
+    from stereotrack.simulation.spec import BallSpec, RigSpec, SceneSpec
+    from stereotrack.simulation.trajectories import Line
+
+    line = Line((0.0, 1.5, 0.0), (0.1, 1.5, 0.0), period=4.0)
+    pink = SceneSpec("one", (BallSpec(line, colour="pink"),), RigSpec(), 30.0, 2).config().targets[0]
+    streak = range_bounds(streak_range(pink))
+    behind = np.uint8([[[170, 140, 190], [120, 120, 120], [120, 120, 120]]])  # a pale pink wall; a grey one
+    # a faint change of the pink wall; 0.3 of a pink ball over grey; the pink wall's colour over grey
+    image = np.uint8([[[176, 146, 197], [129, 102, 153], [176, 146, 197]]])
+    faint = np.full((1, 3), 2, np.uint8)
+    out = np.zeros_like(faint)
+    pale_cells(faint, image, behind, streak, range_bounds(pink), np.zeros((0, 7), np.int64), out)
+    assert out.tolist() == [[0, 2, 2]]  # the wall's colour is a streak's: over grey it would be one
