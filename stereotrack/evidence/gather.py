@@ -8,7 +8,7 @@ explain-away looks the blobs up, the viewer draws the rays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 
 import cv2
@@ -18,7 +18,7 @@ from ..camera import Camera
 from ..config import Target
 from .blobs import Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps
+from .kernels import evidence_maps, pale_cells
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +34,22 @@ class Seeds:
 
     def __len__(self) -> int:
         return len(self.centres)
+
+
+NO_OTHERS = np.zeros((0, 7), np.int64)  # no other coloured target
+
+
+@dataclass(frozen=True, eq=False)
+class Faint:
+    """A camera's faint changes (motion.py's ``faint`` map), the frame and the background on that grid (BGR), and
+    the target's range (colour.range_bounds): where a streak too pale for the foreground's threshold is looked for;
+    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (kernels.pale_cells)."""
+
+    cells: np.ndarray
+    image: np.ndarray
+    behind: np.ndarray
+    bounds: np.ndarray
+    others: np.ndarray = field(default_factory=lambda: NO_OTHERS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +99,7 @@ class CameraEvidence:
         background_hsv: np.ndarray | None = None,
         motion_range: Target | None = None,
         streak_range: Target | None = None,
+        faint: Faint | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -96,7 +113,9 @@ class CameraEvidence:
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
         With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
-        ball). The blobs are those of the mask and the moving map together: what the likelihood counts is what
+        ball); with ``faint`` changes too (motion.py: above a lower threshold, on the foreground's grid), so do the
+        pale pixels of faint streaks (a far fast ball's, too thin and pale to pass the threshold; kernels.pale_cells).
+        The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
@@ -129,8 +148,18 @@ class CameraEvidence:
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)
-            if streaky and pale:
-                _streaks_only(moving, in_range, min_blob_area, rows)
+            if streaky:
+                if pale:
+                    _streaks_only(moving, in_range, min_blob_area, rows)
+                if faint is not None:
+                    more = _faint_streaks(in_range, moving, faint, range_bounds(motion_range), (w, h))
+                    if more is not None:
+                        rows = np.maximum(rows, more[1])
+                        least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
+                        for ys, xs in _kept_streaks(
+                            more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), more[2], least
+                        ):
+                            moving[ys, xs] = 1
             if moving is not None:
                 moving_integral = integral_image(moving)
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
@@ -185,6 +214,51 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
     moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames). ``rows``: as
     find_blobs takes them. Called only when some moving pixel is out of the range (evidence_maps counts them)."""
+    kept = _kept_streaks(moving, in_range, min_blob_area, rows)
+    cv2.bitwise_and(moving, in_range, dst=moving)  # every pale pixel out (both maps 0/1), then the streaks' back
+    for ys, xs in kept:
+        moving[ys, xs] = 1
+
+
+FRESH_SHARE = 0.5  # a faint streak blob must have changed from the frame before in this share of its pixels at least
+KNOWN_SHARE = 0.2  # a faint streak blob with more of its pixels in the moving map or the range than this is no new streak
+FAINT_MIN_CELLS = 6  # a faint streak keeps at least this many of the background's cells' worth of pale pixels
+
+
+def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tuple[int, int]) -> tuple | None:
+    """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, at the image's size
+    ``size`` (w, h) as the foreground is read) with the ``moving`` map's, which rows hold any, and the cells' marks
+    there (2: changed from the frame before); None when none of them is out of the range and the moving map."""
+    if not cv2.countNonZero(faint.cells):
+        return None
+    cells = np.empty_like(faint.cells)
+    pale_cells(faint.cells, faint.image, faint.behind, streak, faint.bounds, faint.others, cells)
+    if not cv2.countNonZero(cells):
+        return None
+    marks = cv2.resize(cells, size, interpolation=cv2.INTER_NEAREST)
+    pale = cv2.threshold(marks, 0, 1, cv2.THRESH_BINARY)[1]
+    if not cv2.countNonZero(cv2.subtract(pale, cv2.bitwise_or(in_range, moving))):
+        return None
+    pale = cv2.bitwise_or(pale, moving)
+    return pale, pale.max(axis=1), marks
+
+
+def _kept_streaks(
+    moving: np.ndarray,
+    in_range: np.ndarray,
+    min_blob_area: int,
+    rows: np.ndarray | None,
+    known: np.ndarray | None = None,
+    marks: np.ndarray | None = None,
+    least: int = 0,
+) -> list:
+    """The pale pixels (out of the range) of ``moving``'s blobs that are streaks, mostly that pale, with fewer pixels
+    in range around them than pale ones (_streaks_only), as (ys, xs) per blob; with ``known`` (0/1), only of blobs
+    mostly new there (KNOWN_SHARE): a streak the moving map holds already keeps its width (the faint halo around it
+    would widen it, and a streak's width is its ball's depth: fast_ball tune seed 13 a third of a metre near); with
+    the faint cells' ``marks``, only of blobs mostly changed from the frame before (FRESH_SHARE), and keeping ``least``
+    pale pixels at least (FAINT_MIN_CELLS: the faint streaks of fast_ball tune seeds 14, 17 keep 140-720 pixels, 35 cells
+    and more; a pair of faint cells is noise, which seeded a false track in hands tune seed 19)."""
     blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
     kept = []
@@ -193,17 +267,19 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
         ys, xs = np.nonzero(moving[y0:y1, x0:x1])
         mine = blobs.label_blob[blobs.labels[(ys + y0) // s, (xs + x0) // s]] == k
         ys, xs = ys[mine] + y0, xs[mine] + x0
+        if known is not None and np.count_nonzero(known[ys, xs]) > KNOWN_SHARE * len(ys):
+            continue
+        if marks is not None and np.count_nonzero(marks[ys, xs] == 2) < FRESH_SHARE * len(ys):
+            continue  # mostly where it was the frame before: a ghost (a streak overlaps the one before it a little)
         paler = in_range[ys, xs] == 0
         pale_share = paler.sum() / max(len(ys), 1)
         if pale_share <= 0.5:
             continue
         grow = int(np.ceil(blobs.axes[k, 0]))  # and no more of the ball's colour around it (its length again on every side)
         around = int(in_range[max(y0 - grow, 0) : y1 + grow, max(x0 - grow, 0) : x1 + grow].sum())
-        if around < pale_share * blobs.areas[k]:
+        if around < pale_share * blobs.areas[k] and np.count_nonzero(paler) >= least:
             kept.append((ys[paler], xs[paler]))
-    cv2.bitwise_and(moving, in_range, dst=moving)  # every pale pixel out (both maps 0/1), then the streaks' back
-    for ys, xs in kept:
-        moving[ys, xs] = 1
+    return kept
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob

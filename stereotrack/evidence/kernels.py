@@ -267,14 +267,16 @@ def frame_gain(image, background, step, scale):
 
 
 @kernel
-def background_step(small, background, previous, calm, learn, gain, rate, threshold, moving, behind, absorb_frames):
+def background_step(small, background, previous, calm, learn, gain, rate, threshold, moving, behind, absorb_frames, faint_threshold, faint):
     """One frame of the background model (motion.py), in one pass over the frame at the background's size
     (``small``, H x W x 3 uint8: cv2.resize's INTER_AREA average of each 2 x 2 block of the image): each cell
     scaled by the frame's ``gain`` per channel (the lighting's drift undone, rounded half up) is compared with its
     ``background`` cell (float32): ``moving`` = 1 where |dB| + |dG| + |dR| (against the background rounded to grey
     levels) exceeds ``threshold``. ``calm`` counts the frames in a row (at most 255) each cell has differed from
     the ``previous`` frame's (uint8, updated here) by at most ``threshold``. ``behind`` (uint8) gets the
-    background as it was, rounded (what cv2.convertScaleAbs gives). Then the cell learns, b += rate (cell - b),
+    background as it was, rounded (what cv2.convertScaleAbs gives); ``faint`` (empty: none) = 1 where the change
+    exceeds ``faint_threshold`` instead, 2 where the change from the ``previous`` frame does too (a fast ball's pale
+    streak is mostly somewhere new each frame, a ghost never: gather.py). Then the cell learns, b += rate (cell - b),
     where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more.
     Each row runs channel by channel over its 3 W values first (a loop the compiler vectorises: no branch in it;
     a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell."""
@@ -288,6 +290,7 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
     change = np.empty(n, np.int32)
     step = np.empty(n, np.int32)
     calm_moving = 0
+    use_faint = faint.shape[0] > 0
     for j in range(h):
         blocks, cells, before, was = small[j].reshape(n), background[j].reshape(n), previous[j].reshape(n), behind[j].reshape(n)
         for i in range(w):
@@ -303,7 +306,11 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
             cells[k] = cell + a * (np.float32(block) - cell) * learning[k]
         count, out = calm[j], moving[j]
         for i in range(w):
-            out[i] = 1 if change[3 * i] + change[3 * i + 1] + change[3 * i + 2] > threshold else 0
+            total = change[3 * i] + change[3 * i + 1] + change[3 * i + 2]
+            out[i] = 1 if total > threshold else 0
+            if use_faint:  # 2 where it changed from the frame before too: a ghost (the wall where the background holds a ball) is calm
+                stepped = step[3 * i] + step[3 * i + 1] + step[3 * i + 2]
+                faint[j, i] = 0 if total <= faint_threshold else (2 if stepped > faint_threshold else 1)
             count[i] = min(count[i] + 1, 255) if step[3 * i] + step[3 * i + 1] + step[3 * i + 2] <= threshold else 0
             if out[i] and count[i] >= absorb_frames:
                 calm_moving += 1
@@ -347,3 +354,75 @@ def absorb_still_patches(moving, calm, learn, background, previous, absorb_frame
                         for c in range(3):
                             background[y, x, c] = np.float32(previous[y, x, c])
                         moving[y, x] = 0
+
+
+UNMIX_MAX = 10  # a streak's pixel may show the ball for as little as 1 / UNMIX_MAX of the exposure
+
+
+@kernel
+def pale_cells(faint, image, behind, streak, target, others, out):
+    """Per cell of the background's grid (``image``, this frame there, and ``behind``, the background, both BGR
+    uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
+    the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range) where the
+    background's is not (motion_blur tune seed 15: a faint blob where the frame before's streak was, which the background
+    had learnt in part, passed), or the
+    background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
+    a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the
+    complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17).
+    A cell whose change, 1 to UNMIX_MAX times over the background, lands in one of the ``others`` bounds (K x 7: the
+    other targets' ranges) is that target's edge, not a streak (an orange ball's rim over a wall, pale and reddish,
+    passes a pink ball's streak range)."""
+    h, w = faint.shape
+    for y in range(h):
+        for x in range(w):
+            mark = faint[y, x]
+            if not mark:
+                out[y, x] = 0
+                continue
+            b, g, r = np.float32(image[y, x, 0]), np.float32(image[y, x, 1]), np.float32(image[y, x, 2])
+            b0, g0, r0 = np.float32(behind[y, x, 0]), np.float32(behind[y, x, 1]), np.float32(behind[y, x, 2])
+            hh, ss, vv = _hsv(b, g, r)
+            hit = 0
+            if _in_bounds(hh, ss, vv, streak):  # of a streak's colour, over a background that is not (that says nothing)
+                h0, s0, v0 = _hsv(b0, g0, r0)
+                hit = 0 if _in_bounds(h0, s0, v0, streak) else mark
+            if not hit:
+                for k in range(2, UNMIX_MAX + 1):
+                    cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)
+                    if min(cb, cg, cr) < -0.5 or max(cb, cg, cr) > 255.5:
+                        break
+                    hh, ss, vv = _hsv(cb, cg, cr)
+                    if _in_bounds(hh, ss, vv, target):
+                        hit = mark
+                        break
+            if hit and others.shape[0]:
+                for k in range(1, UNMIX_MAX + 1):
+                    cb, cg, cr = b0 + k * (b - b0), g0 + k * (g - g0), r0 + k * (r - r0)
+                    if min(cb, cg, cr) < -0.5 or max(cb, cg, cr) > 255.5:
+                        break
+                    hh, ss, vv = _hsv(cb, cg, cr)
+                    for o in range(others.shape[0]):
+                        if _in_bounds(hh, ss, vv, others[o]):
+                            hit = 0
+                    if not hit:
+                        break
+            out[y, x] = hit
+
+
+@kernel(inline="always")
+def _hsv(b, g, r):
+    """OpenCV's 8-bit BGR -> HSV of one pixel (channels as float32 0..255): H 0..179, S and V 0..255."""
+    v = max(b, g, r)
+    diff = v - min(b, g, r)
+    s = np.int64(np.rint(255.0 * diff / v)) if v > 0 else np.int64(0)
+    if diff <= 0:
+        return np.int64(0), s, np.int64(np.rint(v))
+    if v == r:
+        hue = 60.0 * (g - b) / diff
+    elif v == g:
+        hue = 120.0 + 60.0 * (b - r) / diff
+    else:
+        hue = 240.0 + 60.0 * (r - g) / diff
+    if hue < 0:
+        hue += 360.0
+    return np.int64(np.rint(hue / 2.0)) % 180, s, np.int64(np.rint(v))

@@ -33,6 +33,11 @@ KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball ra
 ABSORB_FRAMES = 5  # a moving patch none of whose cells changed for this many frames, under no travelled ball, is background at once
 MIN_GHOST_CELLS = 2  # fewer calm moving cells than this (a speck of noise) are left to the running average
 GAIN_STEP = 8  # the lighting's gain is measured on every GAIN_STEP-th background cell in each direction
+# A fast ball's streak sees the ball a fraction of the exposure: far and thin, it differs from the wall behind by
+# 15-25 grey levels (three channels, this grid) where the threshold asks 30 (fast_ball tune seeds 14, 17: no moving
+# pixel for whole throws), and sensor noise by under 10 (99.9th percentile). The ``faint`` map of changes above this
+# share of the threshold is read only for streak-shaped blobs of a streak's colour (evidence/gather.py).
+FAINT_SHARE = 0.4
 
 # A white or grey ball's kept-out disc (a target of every hue: its colour is the wall's) must show something in this
 # frame: a ball's shading and rim give its disc a mean gradient of 4-20 grey levels per pixel (on the background's
@@ -157,11 +162,16 @@ def halved(image: np.ndarray) -> np.ndarray:
     return cv2.resize(image[: SCALE * h, : SCALE * w], (w, h), interpolation=cv2.INTER_AREA)
 
 
+_NO_MAP = np.zeros((0, 0), np.uint8)
+
+
 class BackgroundModel:
     """One camera's background, learnt as frames come."""
 
-    def __init__(self, camera: Camera, rate: float, threshold: float, rim_checked: frozenset[str] = frozenset()):
+    def __init__(self, camera: Camera, rate: float, threshold: float, rim_checked: frozenset[str] = frozenset(), faint: bool = False):
         self.camera = camera
+        self.keep_faint = faint  # make ``faint`` each frame too (a target whose streaks are looked for)
+        self.faint: np.ndarray | None = None  # uint8 0/1 on the background's grid: cells changed by FAINT_SHARE of the threshold
         self.rim_checked = rim_checked  # targets (of every hue: white, grey) whose kept-out discs must show something (_ghosts)
         self.rate = rate  # weight of each new frame in the running average (1 / frames it takes to learn a change)
         self.threshold = threshold  # grey levels
@@ -187,6 +197,7 @@ class BackgroundModel:
             self._background = self._previous.astype(np.float32)
             self._calm = np.zeros(self._background.shape[:2], np.uint8)
             self._frames = 1
+            self.faint = np.zeros(self._background.shape[:2], np.uint8) if self.keep_faint else None
             return np.zeros(self._background.shape[:2], np.uint8)
         learn = np.ones(self._background.shape[:2], np.uint8)
         balls = self._moved(balls)
@@ -205,6 +216,7 @@ class BackgroundModel:
         self._behind_hsv = None
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
+        self.faint = np.empty(learn.shape, np.uint8) if self.keep_faint else None
         calm_moving = background_step(
             halved(image) if image_halved is None else image_halved,
             self._background,
@@ -217,6 +229,8 @@ class BackgroundModel:
             moving,
             self.behind,
             ABSORB_FRAMES,
+            FAINT_SHARE * self.threshold,
+            self.faint if self.faint is not None else _NO_MAP,
         )
         self._frames += 1
         if calm_moving >= MIN_GHOST_CELLS:

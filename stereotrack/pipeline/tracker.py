@@ -17,9 +17,9 @@ import numpy as np
 from ..camera import Camera, Rig, intrinsics_from_fov, look_at
 from ..config import Config, Target
 from ..errors import StereotrackError
-from ..evidence.colour import camera_masks, motion_range, streak_range
+from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
-from ..evidence.gather import CameraEvidence, every_nth, on_grid
+from ..evidence.gather import CameraEvidence, Faint, every_nth, on_grid
 from ..evidence.motion import SCALE, BackgroundModel, halved, shading, still_only
 from ..frames import FramePair
 from ..kernels import KERNELS
@@ -70,10 +70,20 @@ class Tracker:
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
         white = frozenset(t.name for t in config.targets if t.any_hue)  # their kept-out discs are checked for ghosts
         self.backgrounds = (
-            [BackgroundModel(cam, s.background_rate, s.foreground_threshold, white) for cam in self.evidence_cameras] if s.motion else None
+            [
+                BackgroundModel(cam, s.background_rate, s.foreground_threshold, white, faint=len(white) < len(config.targets))
+                for cam in self.evidence_cameras
+            ]
+            if s.motion
+            else None
         )
         # Where each target's moving map may take pixels out of its range: a white ball's shaded side, a fast ball's streak
         self.moving_ranges = {t.name: (motion_range(t), None) if t.any_hue else (None, streak_range(t)) for t in config.targets}
+        self.bounds = {t.name: range_bounds(t) for t in config.targets}
+        coloured = [t for t in config.targets if not t.any_hue]
+        self.other_bounds = {  # per target, the other coloured targets' ranges: their balls' edges are no faint streak
+            t.name: np.array([self.bounds[o.name] for o in coloured if o.name != t.name], np.int64).reshape(-1, 7) for t in config.targets
+        }
         self.last_time: float | None = None
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
@@ -189,10 +199,18 @@ class Tracker:
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 *self.moving_ranges[t.name],
+                self._faint(t, j, small_halved),
             )
             for t in self.config.targets
         }
         return cm, views, (1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+
+    def _faint(self, target, j: int, small_halved: np.ndarray | None) -> Faint | None:
+        """Where camera j's faint changes may hold a streak of ``target`` (a coloured one: motion.py's FAINT_SHARE)."""
+        bg = self.backgrounds[j] if self.backgrounds else None
+        if bg is None or bg.faint is None or target.any_hue or bg.behind is None or small_halved is None:
+            return None
+        return Faint(bg.faint, small_halved, bg.behind, self.bounds[target.name], self.other_bounds[target.name])
 
     def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> dict[str, np.ndarray]:
         """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their

@@ -145,7 +145,7 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     was = background.copy()
     behind = np.empty((60, 80, 3), np.uint8)
     calm_moving = evidence_kernels.background_step(
-        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5
+        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5, 12.0, np.zeros((0, 0), np.uint8)
     )
     assert np.array_equal(behind, cv2.convertScaleAbs(was))  # the background as it was, rounded as OpenCV rounds
     assert calm_moving == 0  # a moving cell changed from the frame before: none is calm
@@ -163,7 +163,9 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     change = np.abs(blocks - (cells + np.float32(0.5)).astype(np.int32)).sum(axis=2)
     steady = np.abs(blocks - before).sum(axis=2) <= 30
     learnt = np.where(learn[..., None] > 0, cells + np.float32(0.05) * (blocks.astype(np.float32) - cells), cells)
-    calm_moving = evidence_kernels.background_step(small, background, previous, calm, learn, gain, 0.05, 30.0, moving, behind, 1)
+    calm_moving = evidence_kernels.background_step(
+        small, background, previous, calm, learn, gain, 0.05, 30.0, moving, behind, 1, 12.0, np.zeros((0, 0), np.uint8)
+    )
     assert np.array_equal(behind, cv2.convertScaleAbs(cells)) and np.array_equal(previous, blocks.astype(np.uint8))
     assert np.array_equal(moving, (change > 30).astype(np.uint8)) and np.array_equal(background, learnt)
     assert np.array_equal(calm, np.where(steady, np.minimum(counts.astype(int) + 1, 255), 0))
