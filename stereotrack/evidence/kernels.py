@@ -364,11 +364,11 @@ def pale_cells(faint, image, behind, streak, target, others, out):
     """Per cell of the background's grid (``image``, this frame there, and ``behind``, the background, both BGR
     uint8): ``out`` = ``faint``'s mark (1, or 2 where the cell changed from the frame before) where it is set and
     the cell could be a fast ball's streak: its colour in the ``streak`` bounds (colour.streak_range) where the
-    background's is not (motion_blur tune seed 15: a faint blob where the frame before's streak was, which the background
-    had learnt in part, passed), or the
-    background plus 2 to UNMIX_MAX times its change in the ``target`` bounds. A pixel the ball swept over sees it
-    a share a of the exposure and the room the rest, pixel = background + a (ball - background): on a wall of the
-    complementary colour (a yellow ball on lavender) the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17).
+    background's is not (motion_blur tune seed 15: a faint blob where the frame before's streak was, which the
+    background had learnt in part, passed), or the background plus 2 to UNMIX_MAX times its change in the
+    ``target`` bounds. A pixel the ball swept over sees it a share a of the exposure and the room the rest,
+    pixel = background + a (ball - background): on a wall of the complementary colour (a yellow ball on lavender)
+    the mix is grey, but the change still points from the wall to the ball (fast_ball tune seed 17).
     A cell whose change, 1 to UNMIX_MAX times over the background, lands in one of the ``others`` bounds (K x 7: the
     other targets' ranges) is that target's edge, not a streak (an orange ball's rim over a wall, pale and reddish,
     passes a pink ball's streak range)."""
