@@ -152,14 +152,7 @@ class CameraEvidence:
                 if pale:
                     _streaks_only(moving, in_range, min_blob_area, rows)
                 if faint is not None:
-                    more = _faint_streaks(in_range, moving, faint, range_bounds(motion_range), (w, h))
-                    if more is not None:
-                        rows = np.maximum(rows, more[1])
-                        least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
-                        for ys, xs in _kept_streaks(
-                            more[0], in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), more[2], least
-                        ):
-                            moving[ys, xs] = 1
+                    rows = _add_faint_streaks(moving, in_range, faint, range_bounds(motion_range), min_blob_area, rows)
             if moving is not None:
                 moving_integral = integral_image(moving)
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
@@ -241,6 +234,21 @@ def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tup
         return None
     pale = cv2.bitwise_or(pale, moving)
     return pale, pale.max(axis=1), marks
+
+
+def _add_faint_streaks(moving, in_range, faint: Faint, streak: np.ndarray, min_blob_area: int, rows: np.ndarray) -> np.ndarray:
+    """Adds to ``moving``, in place, the pale pixels of new faint streaks (_faint_streaks, _kept_streaks); returns the
+    rows that may hold a pixel of any map now."""
+    h, w = in_range.shape
+    more = _faint_streaks(in_range, moving, faint, streak, (w, h))
+    if more is None:
+        return rows
+    pale, pale_rows, marks = more
+    rows = np.maximum(rows, pale_rows)
+    least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
+    for ys, xs in _kept_streaks(pale, in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), marks, least):
+        moving[ys, xs] = 1
+    return rows
 
 
 def _kept_streaks(

@@ -361,7 +361,7 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swe
 
 
 def _agree(
-    point: np.ndarray, obj: Object3D, cov: np.ndarray, slack: float | None, radius: float, origin: np.ndarray, whole: bool = True
+    point: np.ndarray, obj: Object3D, cov: np.ndarray, slack: float | None, radius: float, origin: np.ndarray, along_ray: bool = True
 ) -> bool:
     """Are the triangulated blobs ``point`` (covariance ``cov``) and the particles' mean ``obj`` the same ball? Within
     3 radii; for streaks (``slack`` not None) 3 standard deviations of the triangulation and of the particles more
@@ -371,29 +371,28 @@ def _agree(
     size somewhere between its width and its length, so their depth may be off by as much as its width falls short of
     its length (a short blur's particles 15 % too near, fast_ball tune seed 5; their spread claimed 0.2 m of 1 m)."""
     gap = point - obj.position
-    if slack is None and np.linalg.norm(gap) <= 3.0 * radius:
-        return True
-    if slack is None:  # farther apart only along the viewing ray, within what the triangulation and the particles claim,
-        # where the particles claim no better than three radii there (a far ball's: 7 radii at 12 m, fast_ball tune seed 16;
-        # a near ball's particles claiming 2 radii, 3.5 radii off, keep their word: lighting tune seed 6 0.967 -> 0.856 else)
-        ray = (point - origin) / max(float(np.linalg.norm(point - origin)), 1e-9)
-        along = float(gap @ ray)
-        spread = obj.covariance if obj.covariance is not None and np.isfinite(obj.covariance).all() else np.zeros((3, 3))
-        # Not for a white or grey ball (``whole`` False: no partial views for it): its blobs are its lit crescents, their
-        # centroids off by as much (white_ball tune seeds 4, 16: 0.722, 0.278 -> 0.611, 0.252 with them)
-        if not whole or ray @ spread @ ray <= (3.0 * radius) ** 2:
-            return False
-        sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))
-        return bool(np.linalg.norm(gap - along * ray) <= 3.0 * radius and abs(along) <= 3.0 * radius + 2.0 * sigma)
-    spread = obj.covariance
-    if spread is not None and np.shape(spread) == (3, 3) and np.isfinite(spread).all():
-        cov = cov + spread
-    u = gap / max(float(np.linalg.norm(gap)), 1e-9)
-    tol = 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
-    ray = (point - origin) / max(float(np.linalg.norm(point - origin)), 1e-9)
+    valid = obj.covariance is not None and np.shape(obj.covariance) == (3, 3) and np.isfinite(obj.covariance).all()
+    spread = obj.covariance if valid else np.zeros((3, 3))
+    distance = float(np.linalg.norm(point - origin))
+    ray = (point - origin) / max(distance, 1e-9)
     along = float(gap @ ray)
     across = float(np.linalg.norm(gap - along * ray))
-    return across <= tol and abs(along) <= tol + slack * float(np.linalg.norm(point - origin))
+    if slack is None:
+        if np.linalg.norm(gap) <= 3.0 * radius:
+            return True
+        # Farther apart only along the viewing ray, within what the triangulation and the particles claim, where the
+        # particles claim no better than three radii there (a far ball's: 7 radii at 12 m, fast_ball tune seed 16; a near
+        # ball's particles claiming 2 radii, 3.5 radii off, keep their word: lighting tune seed 6 0.967 -> 0.856 else).
+        # Not ``along_ray`` for a white or grey ball: its blobs are its lit crescents, their centroids off by as much
+        # (white_ball tune seeds 4, 16: 0.722, 0.278 -> 0.611, 0.252 with it).
+        if not along_ray or ray @ spread @ ray <= (3.0 * radius) ** 2:
+            return False
+        sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))
+        return bool(across <= 3.0 * radius and abs(along) <= 3.0 * radius + 2.0 * sigma)
+    cov = cov + spread
+    u = gap / max(float(np.linalg.norm(gap)), 1e-9)
+    tol = 3.0 * radius + 3.0 * float(np.sqrt(max(u @ cov @ u, 0.0)))
+    return across <= tol and abs(along) <= tol + slack * distance
 
 
 def _slack(views: list[int], ids: np.ndarray, blobs, swept: list[np.ndarray]) -> float | None:
@@ -455,7 +454,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
         origin = cameras[good[0]].centre
         for i, point, cov in zip(idx, points, covs):
             slack = _slack(list(good), blob_ids[i], blobs, swept)
-            if _agree(point, merged[i], cov, slack, settings.radius, origin, settings.partial_views):
+            if _agree(point, merged[i], cov, slack, settings.radius, origin, along_ray=settings.partial_views):
                 out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:

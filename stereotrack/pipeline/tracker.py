@@ -222,7 +222,7 @@ class Tracker:
         cam = self.evidence_cameras[j]
         for t in self.config.targets:
             if t.any_hue:
-                seen = cam.focal_px * t.radius / SCALE  # the ball's apparent radius on the background's grid at 1 m
+                seen = cam.apparent_radius(t.radius, 1.0) / SCALE  # the ball's apparent radius on the background's grid at 1 m
                 near, far = seen / max(self.config.tracker.d_min, SHADING_NEAR), seen / self.config.tracker.d_max
                 out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
         return out

@@ -38,9 +38,9 @@ from .flight import fit_parabola
 from .kernels import association_costs, kalman_correct, kalman_predict
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
-SWEPT_CONFIRM_RADII = (
-    2.0  # a first object at streaks (Object3D.swept) whose position is this sharp (one sigma, ball radii) confirms a track
-)
+# An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
+# track, and one at rest may be a fast ball that stopped (``_caught``).
+SWEPT_CONFIRM_RADII = 2.0
 _EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
 _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
@@ -182,8 +182,7 @@ class TrackManager:
                     continue
                 # An object may be a fast ball stopped where it was last seen only if it is at rest (not at streaks) and
                 # placed to within a few ball radii (a far ball's depth is vaguer than its last frame's travel).
-                sharp = np.sqrt(np.linalg.eigvalsh(R[cols])[:, -1]) <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
-                still = sharp & ~np.array([objs[j].swept for j in cols], bool)
+                still = self._sharp(target, R[cols]) & ~np.array([objs[j].swept for j in cols], bool)
                 for ti, cj, caught in self._assign(tracks, z[cols], R[cols], time, still):
                     j = cols[cj]
                     if caught:
@@ -279,8 +278,9 @@ class TrackManager:
         return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
 
     def _caught(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray] | None:
-        """Where a flying ball missed since its latest hit would be had a hand caught it then: (position, covariance)
-        around that hit, growing as a hand may carry it (HAND_SPEED); None for a ball not flying or not missed."""
+        """Where a ball would be had it stopped at its latest hit (a hand caught it, a wall stopped it): (position,
+        covariance) around that hit, growing as a hand may carry it (HAND_SPEED). Asked of a flying ball missed since
+        then, and of a fast ball not in flight (STOP_SPEED) the frame after; None otherwise."""
         # streak: 0 once a frame was missed (``update``). A flying ball seen last frame is where its parabola says; one
         # stopped where it was last seen (a fast ball not in flight) shows there the very next frame.
         if tr.caught_at is None or (tr.in_flight and tr.streak > 0) or (not tr.in_flight and tr.streak == 0):
@@ -396,11 +396,16 @@ class TrackManager:
         # clutter leaves no streaks, and a thrown ball is seen for a few frames only (waiting for three hits lost the
         # first two of every throw). A far one's depth is vaguer: reported there, it would be a miss and a false track.
         # A ``rival`` (``_lost_near``) may be the same ball: its track gets the hits to win it back first.
-        sharp = float(np.sqrt(max(np.linalg.eigvalsh(R)[-1], 0.0))) <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
-        fast = self.settings.confirm_speed > 0 and obj.swept and sharp and not rival
+        fast = self.settings.confirm_speed > 0 and obj.swept and bool(self._sharp(target, R)) and not rival
         tr.confirmed = self.settings.confirm_time <= _EPS_TIME or fast
         self._next_id += 1
         return tr
+
+    def _sharp(self, target: str, R: np.ndarray) -> np.ndarray:
+        """Per measurement covariance (... x 3 x 3): placed to within SWEPT_CONFIRM_RADII ball radii (one sigma, its
+        vaguest axis). Never without the target's radius."""
+        sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(R)[..., -1], 0.0))
+        return sigma <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
 
     def _settled(self, tr: _Track, position: np.ndarray) -> bool:
         """Has this track, at ``position`` this frame, gone TRAVEL ball radii from where it was first past tentative,
