@@ -426,3 +426,31 @@ def _hsv(b, g, r):
     if hue < 0:
         hue += 360.0
     return np.int64(np.rint(hue / 2.0)) % 180, s, np.int64(np.rint(v))
+
+
+@kernel
+def faint_pixels(cells, cell_rows, cell_cols, in_range, moving, pale, rows):
+    """The pixels of the marked ``cells`` (pale_cells' ``out``, on the background's grid; pixel (x, y) reads
+    cells[cell_rows[y], cell_cols[x]], what cv2.resize's INTER_NEAREST picks) set in ``pale`` (uint8 0/1, the caller's
+    copy of the ``moving`` map) and their rows in ``rows`` (gather.py's rows that may hold a pixel); returns how many of
+    them are neither in range (``in_range``) nor moving: the new pale pixels. Only the rows of marked cells are read
+    (a few balls' worth), where an upscaled copy of the cells, a threshold, two bitwise passes and a row reduction
+    read every pixel."""
+    marked = np.zeros(cells.shape[0], np.bool_)
+    for cy in range(cells.shape[0]):
+        for cx in range(cells.shape[1]):
+            if cells[cy, cx]:
+                marked[cy] = True
+                break
+    new = 0
+    for y in range(pale.shape[0]):
+        marks = cells[cell_rows[y]]
+        if not marked[cell_rows[y]]:
+            continue
+        rows[y] = 1
+        for x in range(pale.shape[1]):
+            if marks[cell_cols[x]]:
+                if not in_range[y, x] and not moving[y, x]:
+                    new += 1
+                pale[y, x] = 1
+    return new
