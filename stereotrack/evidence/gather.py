@@ -18,7 +18,7 @@ from ..camera import Camera
 from ..config import Target
 from .blobs import Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, pale_cells
+from .kernels import evidence_maps, faint_pixels, pale_cells
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,37 +218,40 @@ KNOWN_SHARE = 0.2  # a faint streak blob with more of its pixels in the moving m
 FAINT_MIN_CELLS = 6  # a faint streak keeps at least this many of the background's cells' worth of pale pixels
 
 
-def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, size: tuple[int, int]) -> tuple | None:
-    """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, at the image's size
-    ``size`` (w, h) as the foreground is read) with the ``moving`` map's, which rows hold any, and the cells' marks
-    there (2: changed from the frame before); None when none of them is out of the range and the moving map."""
+def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, rows: np.ndarray, least: int) -> tuple | None:
+    """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, read at the image's size
+    as the foreground is) with the ``moving`` map's, the rows that may hold any (``rows`` and theirs), and the cells'
+    marks there (2: changed from the frame before) with which cell each pixel's row and column reads; None when too few
+    of them are out of the range and the moving map for a streak to keep ``least`` pale pixels (_kept_streaks: a blob
+    kept is at most KNOWN_SHARE in the moving map or the range, and of the rest at least ``least``)."""
     if not cv2.countNonZero(faint.cells):
         return None
     cells = np.empty_like(faint.cells)
     pale_cells(faint.cells, faint.image, faint.behind, streak, faint.bounds, faint.others, cells)
     if not cv2.countNonZero(cells):
         return None
-    marks = cv2.resize(cells, size, interpolation=cv2.INTER_NEAREST)
-    pale = cv2.threshold(marks, 0, 1, cv2.THRESH_BINARY)[1]
-    if not cv2.countNonZero(cv2.subtract(pale, cv2.bitwise_or(in_range, moving))):
+    h, w = in_range.shape
+    cell_rows, cell_cols = _nearest(cells.shape[0], h), _nearest(cells.shape[1], w)
+    pale, pale_rows = moving.copy(), rows.copy()
+    new = faint_pixels(cells, cell_rows, cell_cols, in_range, moving, pale, pale_rows)
+    if not new or new < (1 - KNOWN_SHARE) * least - 1:  # (less one pixel: the shares are compared in floating point)
         return None
-    pale = cv2.bitwise_or(pale, moving)
-    return pale, pale.max(axis=1), marks
+    return pale, pale_rows, (cells, cell_rows, cell_cols)
 
 
 def _add_faint_streaks(moving, in_range, faint: Faint, streak: np.ndarray, min_blob_area: int, rows: np.ndarray) -> np.ndarray:
     """Adds to ``moving``, in place, the pale pixels of new faint streaks (_faint_streaks, _kept_streaks); returns the
-    rows that may hold a pixel of any map now."""
+    rows that may hold a pixel of any map now (``rows`` when none was added)."""
     h, w = in_range.shape
-    more = _faint_streaks(in_range, moving, faint, streak, (w, h))
+    least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
+    more = _faint_streaks(in_range, moving, faint, streak, rows, least)
     if more is None:
         return rows
     pale, pale_rows, marks = more
-    rows = np.maximum(rows, pale_rows)
-    least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
-    for ys, xs in _kept_streaks(pale, in_range, min_blob_area, rows, cv2.bitwise_or(moving, in_range), marks, least):
+    kept = _kept_streaks(pale, in_range, min_blob_area, pale_rows, cv2.bitwise_or(moving, in_range), marks, least)
+    for ys, xs in kept:
         moving[ys, xs] = 1
-    return rows
+    return pale_rows if kept else rows
 
 
 def _kept_streaks(
@@ -257,14 +260,15 @@ def _kept_streaks(
     min_blob_area: int,
     rows: np.ndarray | None,
     known: np.ndarray | None = None,
-    marks: np.ndarray | None = None,
+    marks: tuple | None = None,
     least: int = 0,
 ) -> list:
     """The pale pixels (out of the range) of ``moving``'s blobs that are streaks, mostly that pale, with fewer pixels
     in range around them than pale ones (_streaks_only), as (ys, xs) per blob; with ``known`` (0/1), only of blobs
     mostly new there (KNOWN_SHARE): a streak the moving map holds already keeps its width (the faint halo around it
     would widen it, and a streak's width is its ball's depth: fast_ball tune seed 13 a third of a metre near); with
-    the faint cells' ``marks``, only of blobs mostly changed from the frame before (FRESH_SHARE), and keeping ``least``
+    the faint cells' ``marks`` (the cells, and which cell each pixel's row and column reads: _faint_streaks), only of
+    blobs mostly changed from the frame before (FRESH_SHARE), and keeping ``least``
     pale pixels at least (FAINT_MIN_CELLS: the faint streaks of fast_ball tune seeds 14, 17 keep 140-720 pixels, 35 cells
     and more; a pair of faint cells is noise, which seeded a false track in hands tune seed 19)."""
     blobs = find_blobs(moving, "components", min_blob_area, rows)
@@ -277,7 +281,7 @@ def _kept_streaks(
         ys, xs = ys[mine] + y0, xs[mine] + x0
         if known is not None and np.count_nonzero(known[ys, xs]) > KNOWN_SHARE * len(ys):
             continue
-        if marks is not None and np.count_nonzero(marks[ys, xs] == 2) < FRESH_SHARE * len(ys):
+        if marks is not None and np.count_nonzero(marks[0][marks[1][ys], marks[2][xs]] == 2) < FRESH_SHARE * len(ys):
             continue  # mostly where it was the frame before: a ghost (a streak overlaps the one before it a little)
         paler = in_range[ys, xs] == 0
         pale_share = paler.sum() / max(len(ys), 1)

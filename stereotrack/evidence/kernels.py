@@ -374,10 +374,16 @@ def pale_cells(faint, image, behind, streak, target, others, out):
     passes a pink ball's streak range)."""
     h, w = faint.shape
     for y in range(h):
+        marks, row = faint[y], out[y]
+        any_mark = 0
+        for x in range(w):  # no branch: vectorised (most rows hold no faint cell)
+            any_mark |= marks[x]
+            row[x] = 0
+        if not any_mark:
+            continue
         for x in range(w):
-            mark = faint[y, x]
+            mark = marks[x]
             if not mark:
-                out[y, x] = 0
                 continue
             b, g, r = np.float32(image[y, x, 0]), np.float32(image[y, x, 1]), np.float32(image[y, x, 2])
             b0, g0, r0 = np.float32(behind[y, x, 0]), np.float32(behind[y, x, 1]), np.float32(behind[y, x, 2])
@@ -426,3 +432,45 @@ def _hsv(b, g, r):
     if hue < 0:
         hue += 360.0
     return np.int64(np.rint(hue / 2.0)) % 180, s, np.int64(np.rint(v))
+
+
+@kernel
+def faint_pixels(cells, cell_rows, cell_cols, in_range, moving, pale, rows):
+    """The pixels of the marked ``cells`` (pale_cells' ``out``, on the background's grid; pixel (x, y) reads
+    cells[cell_rows[y], cell_cols[x]], what cv2.resize's INTER_NEAREST picks) set in ``pale`` (uint8 0/1, the caller's
+    copy of the ``moving`` map) and their rows in ``rows`` (gather.py's rows that may hold a pixel); returns how many of
+    them are neither in range (``in_range``) nor moving: the new pale pixels. Only the marked cells' pixels are read
+    (a few balls' worth), where an upscaled copy of the cells, a threshold, two bitwise passes and a row reduction
+    read every pixel."""
+    row_from, row_to = _runs(cell_rows, cells.shape[0])  # the maps rise: the pixels reading a cell are one run a side
+    col_from, col_to = _runs(cell_cols, cells.shape[1])
+    new = 0
+    for cy in range(cells.shape[0]):
+        marks = cells[cy]
+        any_mark = 0
+        for cx in range(cells.shape[1]):  # no branch: the compiler vectorises it (most rows hold no mark)
+            any_mark |= marks[cx]
+        if not any_mark:
+            continue
+        for cx in range(cells.shape[1]):
+            if not marks[cx]:
+                continue
+            for y in range(row_from[cy], row_to[cy]):
+                rows[y] = 1
+                for x in range(col_from[cx], col_to[cx]):
+                    if not in_range[y, x] and not moving[y, x]:
+                        new += 1
+                    pale[y, x] = 1
+    return new
+
+
+@kernel(inline="always")
+def _runs(index, n):
+    """Per cell 0..n-1, the run [from, to) of positions whose (rising) ``index`` is that cell (empty: to <= from)."""
+    start = np.full(n, index.shape[0], np.int64)
+    stop = np.zeros(n, np.int64)
+    for i in range(index.shape[0]):
+        c = index[i]
+        start[c] = min(start[c], i)
+        stop[c] = max(stop[c], i + 1)
+    return start, stop

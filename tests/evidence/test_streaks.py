@@ -86,6 +86,8 @@ def _faint_view(share: float, colour=YELLOW_GREEN, wall=LAVENDER, shape="streak"
             cv2.line(image, (200, 240), (240, 244), mixed, 4)
         elif shape == "speck":
             cv2.line(image, *SPECK, mixed, 2)
+        elif shape == "dot":  # a couple of faint cells
+            cv2.line(image, SPECK[0], SPECK[0], mixed, 2)
         else:
             cv2.circle(image, (220, 242), 8, mixed, -1)
         return image
@@ -173,3 +175,43 @@ def test_a_faint_change_over_a_wall_of_a_streaks_colour_is_no_streak_by_its_colo
     out = np.zeros_like(faint)
     pale_cells(faint, image, behind, streak, range_bounds(pink), np.zeros((0, 7), np.int64), out)
     assert out.tolist() == [[0, 2, 2]]  # the wall's colour is a streak's: over grey it would be one
+
+
+def test_a_faint_speck_too_small_for_a_streak_is_not_labelled(monkeypatch):
+    """The faint pass labels the pale pixels' blobs only when enough of them are new for a streak to keep
+    FAINT_MIN_CELLS cells' worth: the speck's few pixels are no streak whatever their blobs are (the pass labelled
+    them in every frame with any pale cell: demo's step 9.4-9.7 -> 10.3-10.8 ms)."""
+    from stereotrack.evidence import gather
+
+    labelled = []
+    kept = gather._kept_streaks
+
+    def counted(moving, in_range, min_blob_area, rows, known=None, *more):
+        labelled.append(known is not None)  # the faint pass's call (_streaks_only's has no known map)
+        return kept(moving, in_range, min_blob_area, rows, known, *more)
+
+    monkeypatch.setattr(gather, "_kept_streaks", counted)
+    assert _faint_view(0.09, shape="dot").moving.sum() == 0
+    assert not any(labelled)
+    assert _faint_view(0.09).moving.sum() > 0 and any(labelled)  # a streak is still looked for
+
+
+def test_faint_pixels_reads_the_cells_as_the_nearest_neighbour_upscaling_does():
+    """kernels.faint_pixels: the marked cells at the image's size (cv2.resize's INTER_NEAREST), OR the moving map,
+    and the count of those neither in range nor moving, on grids of whole and odd ratios."""
+    from stereotrack.evidence.gather import _nearest
+    from stereotrack.evidence.kernels import faint_pixels
+
+    rng = np.random.default_rng(3)
+    for (ch, cw), (h, w) in [((240, 320), (480, 640)), ((180, 320), (360, 640)), ((7, 11), (15, 23)), ((5, 9), (5, 9))]:
+        cells = (rng.random((ch, cw)) < 0.05).astype(np.uint8) * rng.integers(1, 3, (ch, cw), dtype=np.uint8)
+        cells[: ch // 2] = 0  # rows without a mark are not read
+        in_range = (rng.random((h, w)) < 0.1).astype(np.uint8)
+        moving = (rng.random((h, w)) < 0.1).astype(np.uint8)
+        rows = np.zeros(h, np.uint8)
+        pale = moving.copy()
+        new = faint_pixels(cells, _nearest(ch, h), _nearest(cw, w), in_range, moving, pale, rows)
+        marks = cv2.resize(cells, (w, h), interpolation=cv2.INTER_NEAREST) > 0
+        assert np.array_equal(pale, (marks | (moving > 0)).astype(np.uint8))
+        assert new == np.count_nonzero(marks & (in_range == 0) & (moving == 0))
+        assert np.array_equal(rows, marks.any(axis=1).astype(np.uint8))
