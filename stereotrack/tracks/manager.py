@@ -211,9 +211,9 @@ class TrackManager:
             for j in np.flatnonzero(free):
                 if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
                     continue
-                lost = self._lost_ball(target, z[j], R[j], time)
+                lost = self._lost_ball(target, z[j], R[j], objs[j], time)
                 if lost is not None:
-                    self._restart(lost, z[j], R[j], objs[j], time)
+                    self._restart(*lost, z[j], R[j], objs[j], time)
                 else:
                     self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
@@ -326,39 +326,40 @@ class TrackManager:
         tr.history = []
         tr.caught_at = None
 
-    def _pace(self, tr: _Track) -> float | None:
+    def _pace(self, tr: _Track, sharp: bool) -> float | None:
         """How fast the ball of a confirmed track not in flight may have gone since its latest hit where its motion model
-        does not follow it: a fast one (STOP_SPEED) missed since the frame before may have stopped out of sight (one seen
-        then is tried where it was, ``_caught``; an object off its path as it leaves the view is no stop); one at rest
-        since a catch may have been thrown again as fast as it came (its ``arrival``). None for any other."""
+        does not follow it, to be this object (``sharp``: ``_sharp``): one at rest since a catch may have been thrown
+        again as fast as it came (its ``arrival``; a launch blurs: any object); a fast one (STOP_SPEED) missed since the
+        frame before may have stopped out of sight (a ball at rest is sharp; one seen then is tried where it was,
+        ``_caught``). None for any other."""
         if not tr.confirmed or tr.in_flight:
             return None
         speed = float(np.linalg.norm(tr.x[3:]))
-        if speed >= STOP_SPEED:
-            return speed if tr.streak == 0 else None
-        return tr.arrival
+        if speed < STOP_SPEED:
+            return tr.arrival
+        return speed if tr.streak == 0 and sharp else None
 
-    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, time: float) -> _Track | None:
-        """The track, missed this frame, whose ball this unmatched sharp object may be (the nearest within LAUNCH_MARGIN
-        times its ``_pace`` since its latest hit of where it was then); None if none. A launch from rest (or a stop the
-        frame after a miss) leaves the prediction behind: without this each throw started a new track, and the one left
-        at rest took the ball on its next pass (motion_blur tune seed 19: 38 id switches)."""
-        if not self._sharp(target, R):
-            return None
+    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> tuple[_Track, float] | None:
+        """The track, missed this frame, whose ball this unmatched object may be, and its pace: the nearest within
+        LAUNCH_MARGIN times its ``_pace`` since its latest hit of where it was then, lost for LAUNCH_TIME at most; None if
+        none. A launch from rest (or a stop the frame after a miss) leaves the prediction behind: without this each throw
+        started a new track, and the one left at rest took the ball on its next pass (motion_blur tune seed 19: 38 id
+        switches)."""
+        sharp = bool(self._sharp(target, R))
         lost = [t for t in self._tracks if t.target == target and not t.hit and time - t.last_hit <= LAUNCH_TIME + _EPS_TIME]
-        lost = [(t, self._pace(t)) for t in lost if t.seen_at is not None]
+        lost = [(t, self._pace(t, sharp)) for t in lost if t.seen_at is not None]
         lost = [(t, p) for t, p in lost if p is not None]
         if not lost:
             return None
         dist = np.array([np.linalg.norm(z - t.seen_at) for t, _ in lost])
         reach = np.array([LAUNCH_MARGIN * p * max(time - t.last_hit, _EPS_TIME) for t, p in lost])
         k = int(np.argmin(np.where(dist <= reach, dist, np.inf)))
-        return lost[k][0] if dist[k] <= reach[k] else None
+        return lost[k] if dist[k] <= reach[k] else None
 
-    def _restart(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+    def _restart(self, tr: _Track, pace: float, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         """Its ball found again (``_lost_ball``): the track starts over at ``z`` as a new one would (seen once, velocity
         unknown: ``_two_point`` gives it one next frame), keeping its id, its confirmation and its pace."""
-        tr.arrival = self._pace(tr)
+        tr.arrival = pace
         tr.x, tr.P = self._first_state(z, R)
         tr.last_hit, tr.streak, tr.hits, tr.hit, tr.n_particles = time, 1, 1, True, int(obj.n_particles)
         tr.history, tr.parabola, tr.prediction, tr.caught_at = [], None, None, None
