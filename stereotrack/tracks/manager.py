@@ -211,7 +211,7 @@ class TrackManager:
             for j in np.flatnonzero(free):
                 if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
                     continue
-                lost = self._lost_ball(target, z[j], R[j], objs[j], time)
+                lost = self._lost_ball(target, z[j], R[j], time)
                 if lost is not None:
                     self._restart(*lost, z[j], R[j], objs[j], time)
                 else:
@@ -339,7 +339,7 @@ class TrackManager:
             return tr.arrival
         return speed if tr.streak == 0 and sharp else None
 
-    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> tuple[_Track, float] | None:
+    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, time: float) -> tuple[_Track, float] | None:
         """The track, missed this frame, whose ball this unmatched object may be, and its pace: the nearest within
         LAUNCH_MARGIN times its ``_pace`` since its latest hit of where it was then, lost for LAUNCH_TIME at most; None if
         none. A launch from rest (or a stop the frame after a miss) leaves the prediction behind: without this each throw
