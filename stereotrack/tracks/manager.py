@@ -47,6 +47,13 @@ _INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises 
 TRAVEL = 2.0  # a track is settled (its ball keeps its disc out of the background) once it has gone this many ball radii from where it was first shown ...
 HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
 STOP_SPEED = 2.0  # m/s: a ball this fast at its latest hit may have stopped there (caught, at a wall): tried there too
+# A ball caught at speed v may be thrown again as fast (a ballistic throw lands as fast as it left), a fast one may stop
+# out of sight; its track's speed lags its ball's, so a new object up to this many times v dt away may be that ball.
+LAUNCH_MARGIN = 1.5
+# Seconds since its latest hit a lost track's ball is looked for at that pace: a launch or a stop blurs a frame or two
+# away (motion_blur tune seed 19); lost longer, its reach holds other balls (fast_ball tune seed 6: one lost 0.6 s took
+# a new ball 7 m off).
+LAUNCH_TIME = 0.1
 SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
@@ -76,6 +83,7 @@ class _Track:
     launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
     seen_at: np.ndarray | None = None  # its position after its latest hit
     caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
+    arrival: float | None = None  # m/s: its speed when it was last caught or stopped, how fast it may be launched again
     first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
@@ -197,12 +205,17 @@ class TrackManager:
             for t in self._tracks:
                 if t.target == target and not t.hit:
                     t.contested = bool(len(spare)) and np.min(np.linalg.norm(spare - t.x[:3], axis=1)) < 0.2
-            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects).
+            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects) or are
+            # a lost track's ball after a throw or a stop (``_lost_ball``).
             live = np.array([t.x[:3] for t in self._tracks if t.target == target]).reshape(-1, 3)
             for j in np.flatnonzero(free):
                 if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
                     continue
-                self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
+                lost = self._lost_ball(target, z[j], R[j], time)
+                if lost is not None:
+                    self._restart(*lost, z[j], R[j], objs[j], time)
+                else:
+                    self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
@@ -303,6 +316,7 @@ class TrackManager:
     def _catch(self, tr: _Track, time: float) -> None:
         """The ball was caught at its latest hit: it stops flying and starts again from there, at rest in a hand."""
         position, P = self._caught(tr, time)
+        tr.arrival = float(np.linalg.norm(tr.x[3:]))
         tr.x = np.r_[position, 0.0, 0.0, 0.0]
         tr.P = np.zeros((6, 6))
         tr.P[:3, :3] = P
@@ -311,6 +325,45 @@ class TrackManager:
         tr.parabola = None
         tr.history = []
         tr.caught_at = None
+
+    def _pace(self, tr: _Track, sharp: bool) -> float | None:
+        """How fast the ball of a confirmed track not in flight may have gone since its latest hit where its motion model
+        does not follow it, to be this object (``sharp``: ``_sharp``): one at rest since a catch may have been thrown
+        again as fast as it came (its ``arrival``; a launch blurs: any object); a fast one (STOP_SPEED) missed since the
+        frame before may have stopped out of sight (a ball at rest is sharp; one seen then is tried where it was,
+        ``_caught``). None for any other."""
+        if not tr.confirmed or tr.in_flight:
+            return None
+        speed = float(np.linalg.norm(tr.x[3:]))
+        if speed < STOP_SPEED:
+            return tr.arrival
+        return speed if tr.streak == 0 and sharp else None
+
+    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, time: float) -> tuple[_Track, float] | None:
+        """The track, missed this frame, whose ball this unmatched object may be, and its pace: the nearest within
+        LAUNCH_MARGIN times its ``_pace`` since its latest hit of where it was then, lost for LAUNCH_TIME at most; None if
+        none. A launch from rest (or a stop the frame after a miss) leaves the prediction behind: without this each throw
+        started a new track, and the one left at rest took the ball on its next pass (motion_blur tune seed 19: 38 id
+        switches)."""
+        sharp = bool(self._sharp(target, R))
+        lost = [t for t in self._tracks if t.target == target and not t.hit and time - t.last_hit <= LAUNCH_TIME + _EPS_TIME]
+        lost = [(t, self._pace(t, sharp)) for t in lost if t.seen_at is not None]
+        lost = [(t, p) for t, p in lost if p is not None]
+        if not lost:
+            return None
+        dist = np.array([np.linalg.norm(z - t.seen_at) for t, _ in lost])
+        reach = np.array([LAUNCH_MARGIN * p * max(time - t.last_hit, _EPS_TIME) for t, p in lost])
+        k = int(np.argmin(np.where(dist <= reach, dist, np.inf)))
+        return lost[k] if dist[k] <= reach[k] else None
+
+    def _restart(self, tr: _Track, pace: float, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+        """Its ball found again (``_lost_ball``): the track starts over at ``z`` as a new one would (seen once, velocity
+        unknown: ``_two_point`` gives it one next frame), keeping its id, its confirmation and its pace."""
+        tr.arrival = pace
+        tr.x, tr.P = self._first_state(z, R)
+        tr.last_hit, tr.streak, tr.hits, tr.hit, tr.n_particles = time, 1, 1, True, int(obj.n_particles)
+        tr.history, tr.parabola, tr.prediction, tr.caught_at = [], None, None, None
+        tr.seen_at = z.copy()
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
@@ -387,11 +440,16 @@ class TrackManager:
         reach = np.array([self.settings.max_speed * max(time - t.last_hit, _EPS_TIME) for t in lost])
         return bool((self._in_view(pos) & (np.linalg.norm(pos - z, axis=1) <= reach)).any())
 
-    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float, rival: bool = False) -> _Track:
+    def _first_state(self, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x, P) of a ball seen once, at ``z`` with noise ``R``: at rest, give or take init_speed_sigma."""
         P = np.zeros((6, 6))
         P[:3, :3] = R
         P[3:, 3:] = np.eye(3) * self.settings.init_speed_sigma**2
-        tr = _Track(self._next_id, target, np.r_[z, 0.0, 0.0, 0.0], P, time, time, time, n_particles=int(obj.n_particles))
+        return np.r_[z, 0.0, 0.0, 0.0], P
+
+    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float, rival: bool = False) -> _Track:
+        x, P = self._first_state(z, R)
+        tr = _Track(self._next_id, target, x, P, time, time, time, n_particles=int(obj.n_particles))
         # A fast ball's streaks in two cameras that triangulate where its particles are, to within two ball radii:
         # clutter leaves no streaks, and a thrown ball is seen for a few frames only (waiting for three hits lost the
         # first two of every throw). A far one's depth is vaguer: reported there, it would be a miss and a false track.
