@@ -142,6 +142,16 @@ def _pale(image: np.ndarray, target) -> np.ndarray:
     return (hsv[..., 1] <= target.hsv_max[1]) & (hsv[..., 2] >= np.ceil(SHADING_VALUE * target.hsv_min[2]))
 
 
+def _room(flat: np.ndarray) -> np.ndarray:
+    """The parts of a window's flat map (bool) that reach its border: a wall goes on beyond a ball's disc, a ball's own
+    flat, lit centre is closed in by its rim."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(flat.astype(np.uint8), connectivity=4)
+    x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
+    edge = (x == 0) | (y == 0) | (x + bw == flat.shape[1]) | (y + bh == flat.shape[0])
+    edge[0] = False  # label 0: the cells that are not flat
+    return edge[labels]
+
+
 def _gradient(image: np.ndarray) -> np.ndarray:
     """Per pixel, the mean gradient magnitude (grey levels per pixel, Sobel) over its 3 x 3 neighbourhood of ``image`` (BGR float32)."""
     grey = image.mean(axis=2)
@@ -218,7 +228,7 @@ class BackgroundModel:
             self.faint = np.zeros(self._background.shape[:2], np.uint8) if self.keep_faint else None
             return np.zeros(self._background.shape[:2], np.uint8)
         learn = np.ones(self._background.shape[:2], np.uint8)
-        balls = self._moved(balls)
+        every, balls = balls, self._moved(balls)
         if balls is not None and len(balls):
             uv, front, depth = self.camera.view(balls.centres)
             seen = self.camera.apparent_radius(balls.radii, depth)  # pixels of the evidence grid
@@ -226,9 +236,11 @@ class BackgroundModel:
             small = (halved(image) if image_halved is None else image_halved) if self.rim_checked else None
             ghost = self._ghosts(small, balls, uv, front, seen)
             if self.rim_checked:
-                for (u, v), ok, radius, g, name in zip(uv, front, r, ghost, balls.targets):
+                discs = self._discs(every)
+                for (u, v), ok, radius, g, name, k in zip(uv, front, r, ghost, balls.targets, balls.track_ids):
                     if name in self.rim_checked and ok and not g and np.isfinite(u) and np.isfinite(v):
-                        self._unveil(small, u / SCALE, v / SCALE, radius, self.rim_checked[name])
+                        others = discs[every.track_ids != k]
+                        self._unveil(small, u / SCALE, v / SCALE, radius, self.rim_checked[name], others)
             for (u, v), ok, radius, g in zip(uv, front, r, ghost):
                 if ok and not g and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
@@ -279,7 +291,15 @@ class BackgroundModel:
                 out[k] = structure(small, u / SCALE, v / SCALE, radius / SCALE) < STRUCTURE_MIN
         return out
 
-    def _unveil(self, small: np.ndarray, u: float, v: float, r: float, target: Target) -> None:
+    def _discs(self, balls: TrackedBalls) -> np.ndarray:
+        """Per ball, its kept-out disc on the background's grid: B x 3 (u, v, radius; NaN behind the camera)."""
+        uv, front, depth = self.camera.view(balls.centres)
+        r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
+        out = np.column_stack([uv / SCALE, r])
+        out[~front] = np.nan
+        return out
+
+    def _unveil(self, small: np.ndarray, u: float, v: float, r: float, target: Target, others: np.ndarray) -> None:
         """Learn at once the cells of a white or grey ball's kept-out disc (centre ``u``, ``v``, radius ``r`` on the
         background's grid) that the ball has left: the background holds the ball there and this frame, still for
         ABSORB_FRAMES, shows the room. A slow ball (or one moving along a camera's ray) stays within its own width while
@@ -288,7 +308,9 @@ class BackgroundModel:
         and held the track off the ball (white_ball tune seeds 5, 16, 18, 23, 37). The ball has left a cell whose
         background is of its colour (``_pale``) and whose frame is not (a dark floor, a shelf), or whose background
         shows its shading (gradient of SHADING_MIN or more, or a hole in that: its flat, lit centre) where the frame
-        is flat (under STRUCTURE_MIN: a white wall). The ball itself, in front of the room, is neither."""
+        is flat (under STRUCTURE_MIN) and the flat reaches past the disc (``_room``: a white wall; a ball's own flat,
+        lit centre is closed in by its rim). The ball itself, in front of the room, is neither; nor
+        are the cells in ``others`` (the other tracked balls' discs, N x 3: u, v, radius)."""
         h, w = small.shape[:2]
         g = int(np.ceil(r)) + 2
         x0, x1, y0, y1 = max(int(u) - g, 0), min(int(u) + g + 1, w), max(int(v) - g, 0), min(int(v) + g + 1, h)
@@ -298,9 +320,12 @@ class BackgroundModel:
         cur = small[y0:y1, x0:x1].astype(np.float32)
         ys, xs = np.mgrid[y0:y1, x0:x1]
         cells = (np.hypot(xs - u, ys - v) <= r) & (np.abs(cur - bg).sum(axis=2) > self.threshold)
+        for ou, ov, orad in others:  # another ball there shows itself, not the room (one passing in front of one at rest)
+            if np.hypot(ou - u, ov - v) < r + orad:
+                cells &= np.hypot(xs - ou, ys - ov) > orad
         if not cells.any():
             return
-        flat = _gradient(cur) < STRUCTURE_MIN
+        flat = _room(_gradient(cur) < STRUCTURE_MIN)
         left = ((_gradient(bg) >= SHADING_MIN) & flat).astype(np.uint8)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - left, connectivity=4)
         x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
