@@ -21,10 +21,13 @@ ball's first position fades within a few frames, before a track confirms.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..config import Target
 from ..results import TrackedBalls
 from .kernels import absorb_still_patches, background_step, frame_gain
 
@@ -132,6 +135,31 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     return cv2.erode(keep.astype(np.uint8)[labels], _CROSS)
 
 
+def _pale(image: np.ndarray, target) -> np.ndarray:
+    """Where ``image`` (BGR uint8) could show a white or grey ball (``target`` of every hue): saturation at most the
+    range's top, value at least SHADING_VALUE of its bottom (a ball's shaded side). bool."""
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+    return (hsv[..., 1] <= target.hsv_max[1]) & (hsv[..., 2] >= np.ceil(SHADING_VALUE * target.hsv_min[2]))
+
+
+def _room(flat: np.ndarray) -> np.ndarray:
+    """The parts of a window's flat map (bool) that reach its border: a wall goes on beyond a ball's disc, a ball's own
+    flat, lit centre is closed in by its rim."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(flat.astype(np.uint8), connectivity=4)
+    x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
+    edge = (x == 0) | (y == 0) | (x + bw == flat.shape[1]) | (y + bh == flat.shape[0])
+    edge[0] = False  # label 0: the cells that are not flat
+    return edge[labels]
+
+
+def _gradient(image: np.ndarray) -> np.ndarray:
+    """Per pixel, the mean gradient magnitude (grey levels per pixel, Sobel) over its 3 x 3 neighbourhood of ``image`` (BGR float32)."""
+    grey = image.mean(axis=2)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    return cv2.blur(cv2.magnitude(gx, gy), (3, 3))
+
+
 def still_only(shaded: np.ndarray, foreground: np.ndarray) -> np.ndarray:
     """The patches of a shading map (uint8 0/1) that touch no moving cell: a moving ball is in the moving map already,
     whose disc is the ball's own (its shading patch, merged with its trail or a neighbour's edge, would move its centre)."""
@@ -168,11 +196,11 @@ _NO_MAP = np.zeros((0, 0), np.uint8)
 class BackgroundModel:
     """One camera's background, learnt as frames come."""
 
-    def __init__(self, camera: Camera, rate: float, threshold: float, rim_checked: frozenset[str] = frozenset(), faint: bool = False):
+    def __init__(self, camera: Camera, rate: float, threshold: float, rim_checked: Mapping[str, Target] | None = None, faint: bool = False):
         self.camera = camera
         self.keep_faint = faint  # make ``faint`` each frame too (a target whose streaks are looked for)
         self.faint: np.ndarray | None = None  # uint8 0/1 on the background's grid: cells changed by FAINT_SHARE of the threshold
-        self.rim_checked = rim_checked  # targets (of every hue: white, grey) whose kept-out discs must show something (_ghosts)
+        self.rim_checked = dict(rim_checked or {})  # targets of every hue (white, grey) by name: their discs are checked (_ghosts)
         self.rate = rate  # weight of each new frame in the running average (1 / frames it takes to learn a change)
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
@@ -200,13 +228,19 @@ class BackgroundModel:
             self.faint = np.zeros(self._background.shape[:2], np.uint8) if self.keep_faint else None
             return np.zeros(self._background.shape[:2], np.uint8)
         learn = np.ones(self._background.shape[:2], np.uint8)
-        balls = self._moved(balls)
+        every, balls = balls, self._moved(balls)
         if balls is not None and len(balls):
             uv, front, depth = self.camera.view(balls.centres)
             seen = self.camera.apparent_radius(balls.radii, depth)  # pixels of the evidence grid
             r = seen * KEEP_OUT_MARGIN / SCALE
             small = (halved(image) if image_halved is None else image_halved) if self.rim_checked else None
             ghost = self._ghosts(small, balls, uv, front, seen)
+            if self.rim_checked:
+                discs = self._discs(every)
+                for (u, v), ok, radius, g, name, k in zip(uv, front, r, ghost, balls.targets, balls.track_ids):
+                    if name in self.rim_checked and ok and not g and np.isfinite(u) and np.isfinite(v):
+                        others = discs[every.track_ids != k]
+                        self._unveil(small, u / SCALE, v / SCALE, radius, self.rim_checked[name], others)
             for (u, v), ok, radius, g in zip(uv, front, r, ghost):
                 if ok and not g and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
                     cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
@@ -256,6 +290,50 @@ class BackgroundModel:
             if name in self.rim_checked and ok and np.isfinite(u) and np.isfinite(v):
                 out[k] = structure(small, u / SCALE, v / SCALE, radius / SCALE) < STRUCTURE_MIN
         return out
+
+    def _discs(self, balls: TrackedBalls) -> np.ndarray:
+        """Per ball, its kept-out disc on the background's grid: B x 3 (u, v, radius; NaN behind the camera)."""
+        uv, front, depth = self.camera.view(balls.centres)
+        r = self.camera.apparent_radius(balls.radii, depth) * KEEP_OUT_MARGIN / SCALE
+        out = np.column_stack([uv / SCALE, r])
+        out[~front] = np.nan
+        return out
+
+    def _unveil(self, small: np.ndarray, u: float, v: float, r: float, target: Target, others: np.ndarray) -> None:
+        """Learn at once the cells of a white or grey ball's kept-out disc (centre ``u``, ``v``, radius ``r`` on the
+        background's grid) that the ball has left: the background holds the ball there and this frame, still for
+        ABSORB_FRAMES, shows the room. A slow ball (or one moving along a camera's ray) stays within its own width while
+        the background starts and is learnt into it; once it moves on, a track that settled on its ghost and the ball
+        together kept the ghost out of the update for ever, its disc showing the ball's rim (no ghost for ``_ghosts``),
+        and held the track off the ball (white_ball tune seeds 5, 16, 18, 23, 37). The ball has left a cell whose
+        background is of its colour (``_pale``) and whose frame is not (a dark floor, a shelf), or whose background
+        shows its shading (gradient of SHADING_MIN or more, or a hole in that: its flat, lit centre) where the frame
+        is flat (under STRUCTURE_MIN) and the flat reaches past the disc (``_room``: a white wall; a ball's own flat,
+        lit centre is closed in by its rim). The ball itself, in front of the room, is neither; nor
+        are the cells in ``others`` (the other tracked balls' discs, N x 3: u, v, radius)."""
+        h, w = small.shape[:2]
+        g = int(np.ceil(r)) + 2
+        x0, x1, y0, y1 = max(int(u) - g, 0), min(int(u) + g + 1, w), max(int(v) - g, 0), min(int(v) + g + 1, h)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return
+        bg = self._background[y0:y1, x0:x1]
+        cur = small[y0:y1, x0:x1].astype(np.float32)
+        ys, xs = np.mgrid[y0:y1, x0:x1]
+        cells = (np.hypot(xs - u, ys - v) <= r) & (np.abs(cur - bg).sum(axis=2) > self.threshold)
+        for ou, ov, orad in others:  # another ball there shows itself, not the room (one passing in front of one at rest)
+            if np.hypot(ou - u, ov - v) < r + orad:
+                cells &= np.hypot(xs - ou, ys - ov) > orad
+        if not cells.any():
+            return
+        flat = _room(_gradient(cur) < STRUCTURE_MIN)
+        left = ((_gradient(bg) >= SHADING_MIN) & flat).astype(np.uint8)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - left, connectivity=4)
+        x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
+        hole = (x > 0) & (y > 0) & (x + bw < left.shape[1]) & (y + bh < left.shape[0])
+        hole[0] = False  # label 0: the map's own cells
+        gone = _pale(bg.astype(np.uint8), target) & ~_pale(small[y0:y1, x0:x1], target)
+        cells &= (self._calm[y0:y1, x0:x1] >= ABSORB_FRAMES) & (gone | (flat & ((left > 0) | hole[labels])))
+        bg[cells] = cur[cells]
 
     def _absorb_ghosts(self, moving: np.ndarray, learn: np.ndarray) -> None:
         """Learn at once the moving patches none of whose cells has changed for ABSORB_FRAMES frames: a ghost

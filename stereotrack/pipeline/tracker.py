@@ -68,7 +68,7 @@ class Tracker:
         smallest = min(t.radius for t in config.targets)
         self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
-        white = frozenset(t.name for t in config.targets if t.any_hue)  # their kept-out discs are checked for ghosts
+        white = {t.name: t for t in config.targets if t.any_hue}  # their kept-out discs are checked for ghosts
         self.backgrounds = (
             [
                 BackgroundModel(cam, s.background_rate, s.foreground_threshold, white, faint=len(white) < len(config.targets))
