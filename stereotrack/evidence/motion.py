@@ -60,10 +60,13 @@ def structure(image: np.ndarray, u: float, v: float, r: float) -> float:
         return 0.0
     ys, xs = np.mgrid[y0:y1, x0:x1]
     disc = np.hypot(xs - u, ys - v) <= 1.3 * r + 0.5
-    grey = image[y0:y1, x0:x1].astype(np.float32).mean(axis=2)
-    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0
-    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    gx, gy = _sobel(image[y0:y1, x0:x1].astype(np.float32).mean(axis=2))
     return float(np.hypot(gx[disc], gy[disc]).mean())
+
+
+def _sobel(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The horizontal and vertical gradients of ``grey`` (float32), in grey levels per pixel (3 x 3 Sobel)."""
+    return cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0, cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
 
 
 # A white or grey ball at rest in a white room has neither a colour of its own nor motion: what shows it is its shading
@@ -154,10 +157,7 @@ def _room(flat: np.ndarray) -> np.ndarray:
 
 def _gradient(image: np.ndarray) -> np.ndarray:
     """Per pixel, the mean gradient magnitude (grey levels per pixel, Sobel) over its 3 x 3 neighbourhood of ``image`` (BGR float32)."""
-    grey = image.mean(axis=2)
-    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0
-    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    return cv2.blur(cv2.magnitude(gx, gy), (3, 3))
+    return cv2.blur(cv2.magnitude(*_sobel(image.mean(axis=2))), (3, 3))
 
 
 def still_only(shaded: np.ndarray, foreground: np.ndarray) -> np.ndarray:
