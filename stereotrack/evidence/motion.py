@@ -146,8 +146,8 @@ def _pale(image: np.ndarray, target) -> np.ndarray:
 
 
 def _room(flat: np.ndarray) -> np.ndarray:
-    """The parts of a window's flat map (bool) that reach its border: a wall goes on beyond a ball's disc, a ball's own
-    flat, lit centre is closed in by its rim."""
+    """The parts of a window's flat map (bool, 4-connected) that reach its border: a wall goes on beyond a ball's disc,
+    a ball's own flat, lit centre is closed in by its rim."""
     n, labels, stats, _ = cv2.connectedComponentsWithStats(flat.astype(np.uint8), connectivity=4)
     x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
     edge = (x == 0) | (y == 0) | (x + bw == flat.shape[1]) | (y + bh == flat.shape[0])
@@ -326,13 +326,10 @@ class BackgroundModel:
         if not cells.any():
             return
         flat = _room(_gradient(cur) < STRUCTURE_MIN)
-        left = ((_gradient(bg) >= SHADING_MIN) & flat).astype(np.uint8)
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - left, connectivity=4)
-        x, y, bw, bh = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
-        hole = (x > 0) & (y > 0) & (x + bw < left.shape[1]) & (y + bh < left.shape[0])
-        hole[0] = False  # label 0: the map's own cells
+        left = (_gradient(bg) >= SHADING_MIN) & flat
+        hole = ~left & ~_room(~left)  # the parts of the rest closed in by the shading: its flat, lit centre
         gone = _pale(bg.astype(np.uint8), target) & ~_pale(small[y0:y1, x0:x1], target)
-        cells &= (self._calm[y0:y1, x0:x1] >= ABSORB_FRAMES) & (gone | (flat & ((left > 0) | hole[labels])))
+        cells &= (self._calm[y0:y1, x0:x1] >= ABSORB_FRAMES) & (gone | (flat & (left | hole)))
         bg[cells] = cur[cells]
 
     def _absorb_ghosts(self, moving: np.ndarray, learn: np.ndarray) -> None:
