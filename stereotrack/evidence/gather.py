@@ -326,6 +326,7 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
         dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
         same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
         moves = same.any(axis=0)
+    no_ball = not keep.all()  # a colour blob that is no ball: perhaps a ball merged with scenery (the sure colour, below)
     if ball is not None and mb is not None:
         keep &= ~_still_streaks(blobs, moves)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
@@ -347,7 +348,7 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
         if len(blobs) and len(mb):
             new &= ~same.any(axis=1)
         take(mb, new, True)
-    if soft is not None and not keep.all():
+    if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
         sb = find_blobs(sure, blob_method, min_blob_area, rows)
         new = ball_like(sb, camera.focal_px, *ball)
