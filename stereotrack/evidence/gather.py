@@ -294,6 +294,19 @@ def _kept_streaks(
     return kept
 
 
+def _still_streaks(blobs: Blobs, moves: np.ndarray) -> np.ndarray:
+    """Per blob: shaped like a streak (blobs.streaks: as wide as a ball, and longer) but not moving (``moves``): a
+    ball is smeared into a streak only by its motion, so this is a rod, a stripe, the rim of a disc seen edge on, of
+    the ball's colour, which would seed particles wherever its width is a ball's. Seeded, such clutter was tracked
+    from the first frames and, kept out of the background by its track, for ever (static_props tune seed 38: a rod,
+    0.144 -> 0.956; hue_wall 39: a wall's stripes, 0.044 -> 0.922; white_ball 15: a shelf's edge, 0.493 -> 0.741).
+    A fast ball's streak moves (fast_ball tune 0-19 unchanged); one ball merged with another or with scenery is no
+    seed of one ball either way. Blobs without shapes (the histogram finder) are no streaks."""
+    if blobs.swept is None:
+        return np.zeros(len(blobs), bool)
+    return blobs.swept & ~moves
+
+
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
 # p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
 # or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
@@ -304,10 +317,20 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
     """Ball-like blobs of the colour mask, then those of its moving part that are not the same blob again
     (a ball moving in front of a wall of its colour is a blob of its own only in the moving part), then, when
     a colour blob was no ball (a ball merged with scenery of its hue: a hand, a prop, a wall), the ball-like
-    blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet."""
+    blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet.
+    With motion, a streak that does not move is no ball (``_still_streaks``)."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
+    mb = find_blobs(moving, blob_method, min_blob_area, rows) if moving is not None else None
+    moves = np.zeros(len(blobs), bool)  # a colour blob that is a moving one too moves
+    if mb is not None and len(blobs) and len(mb):
+        dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
+        same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
+        moves = same.any(axis=0)
+    no_ball = not keep.all()  # a colour blob that is no ball: perhaps a ball merged with scenery (the sure colour, below)
+    if ball is not None and mb is not None:
+        keep &= ~_still_streaks(blobs, moves)
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
-    moved = [np.zeros(int(keep.sum()), bool)]
+    moved = [moves[keep]]
     widths = [blobs.ball_radii()[keep]]
 
     def take(more: Blobs, new: np.ndarray, moving: bool) -> None:
@@ -320,19 +343,17 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
             d.append(md)
             moved.append(np.full(int(new.sum()), moving))
 
-    if moving is not None:
-        mb = find_blobs(moving, blob_method, min_blob_area, rows)
+    if mb is not None:
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
         if len(blobs) and len(mb):
-            dist = np.linalg.norm(mb.centres[:, None] - blobs.centres[None], axis=2)
-            same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
             new &= ~same.any(axis=1)
-            moved[0] = same.any(axis=0)[keep]  # a colour blob that is a moving one too moves
         take(mb, new, True)
-    if soft is not None and not keep.all():
+    if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
         sb = find_blobs(sure, blob_method, min_blob_area, rows)
         new = ball_like(sb, camera.focal_px, *ball)
+        if mb is not None:
+            new &= ~_still_streaks(sb, np.zeros(len(sb), bool))  # none of these is checked for motion
         held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
         if len(sb) and len(held_c):
             dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)

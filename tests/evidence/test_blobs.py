@@ -133,6 +133,34 @@ def test_seeds_say_which_blobs_move():
     assert moving.sum() == 1 and seeds.moved[moving].all() and not seeds.moved[~moving].any()
 
 
+def test_a_streak_that_does_not_move_seeds_nothing():
+    """A rod, a stripe on a wall, a disc's rim seen edge on, of the ball's colour: as wide as a ball and long, shaped
+    like a fast ball's streak, but still. With motion it seeds no particles (static_props tune seed 38: a rod was
+    tracked from the first frame to the last); the same streak moving does, and so does a still round ball (a ball at
+    rest). Without motion (no background model) nothing says it is still, and it seeds as before."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.line(mask, (100, 100), (220, 130), 1, 14)  # a rod, still
+    cv2.line(mask, (300, 300), (420, 330), 1, 14)  # a streak, moving
+    cv2.circle(mask, (500, 150), 12, 1, -1)  # a ball at rest
+    foreground = np.zeros((240, 320), np.uint8)  # motion.py's grid: half the image's
+    cv2.line(foreground, (150, 150), (210, 165), 1, 8)
+    still = np.zeros_like(foreground)
+
+    def seeded(fg):
+        seeds = CameraEvidence.from_mask(camera, mask, ball=(R, 0.3, 5.0), foreground=fg).proposal_seeds()
+        return [bool((np.linalg.norm(seeds.centres - c, axis=1) < 4).any()) for c in ((160, 115), (360, 315), (500, 150))]
+
+    assert seeded(foreground) == [False, True, True]
+    assert seeded(still) == [False, False, True]  # the first frame, or a streak's still frame: nothing moves
+    seeds = CameraEvidence.from_mask(camera, mask, ball=(R, 0.3, 5.0)).proposal_seeds()
+    assert len(seeds) == 3  # no motion evidence: every ball-like blob
+
+
 def test_a_small_ball_touching_a_bigger_one_is_not_a_streak():
     """Long and filled like a streak, no gap at its centroid (which lies inside the bigger ball), but narrow where
     the two touch: as wide all along is what a streak is (pendulum4: a far ball behind a near one)."""
