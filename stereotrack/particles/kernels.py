@@ -373,6 +373,7 @@ def ball_shape_likelihood(
     label_blob,
     label_scale,
     streak,
+    still_width,
     streak_major,
     streak_area,
 ):
@@ -380,7 +381,8 @@ def ball_shape_likelihood(
     ball spans r = f R / z pixels; its core should be full of evidence and the ring around it empty, in the
     colour map (its pixels worth up to ``colour_scale``) or (``use_moving``) the moving-colour map (summed-area
     tables), floored at ``floor``. On a streak of the mask (``streak``: a ball swept along it), also the capsule
-    it would sweep, in the moving map where there is one, where the colour's centre-surround then does not count. Outside
+    it would sweep, in the moving map where there is one; on a still one about the ball's width (``still_width``, half
+    widths: a rod, gather.still_streaks) the colour's centre-surround does not count. Outside
     the image or behind the camera: the floor; hidden from this camera (``eye``) by an occluding ball: 1; partly hidden: the core's fill alone."""
     uv, front, z = project_points(positions, R, t, K, k, tilt)
     hidden = hidden_by_balls(eye, positions, occ_centres, occ_radii)
@@ -403,10 +405,8 @@ def ball_shape_likelihood(
         if streak.shape[0]:
             b = label_blob[labels[min(int(v) // label_scale, labels.shape[0] - 1), min(int(u) // label_scale, labels.shape[1] - 1)]]
         on_streak = b >= 0 and streak[b]
-        # A ball is smeared into a streak only by moving: with motion, a streak's colour is no ball at rest but a rod's,
-        # a stripe's, whose end fills a ball's core and leaves most of its ring empty (static_props tune seed 40)
-        if on_streak and use_moving:
-            best = floor
+        if on_streak and 0.5 * r <= still_width[b] <= 2.0 * r:  # a rod's end fills a ball's core, most of its ring empty
+            best = floor  # (a ball's blob cut into slivers by the colour model has thin still streaks on it: not those)
         else:
             best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor, False), floor)
         if use_moving:
