@@ -10,7 +10,9 @@ only. Per camera the factor is
 
 in O(1) from the summed-area table of the colour mask, and of the moving
 part of it (evidence/motion.py): a ball moving in front of a wall of its
-own colour is a ball in the moving map. The best of the two counts,
+own colour is a ball in the moving map (and on a streak of the mask, a
+ball swept along it; on a still streak about the ball's width, a rod's
+end, the colour does not count). The best of the two counts,
 floored (no probability wells) and multiplied over cameras; a camera whose
 view a ball of another colour blocks says nothing. Boxes stand in for
 discs: the core is the square inside the disc, the ring lies between
