@@ -67,6 +67,7 @@ class CameraEvidence:
     soft_integral: np.ndarray | None = None  # summed-area table of p(ball | colour) x 255 inside the range (colour_model.py)
     mask_integral: np.ndarray | None = None  # the mask's summed-area table when it was at hand; else made when first asked
     counted: np.ndarray | None = None  # H x W uint8: the mask OR the moving map, the pixels the blobs are of (None: the mask)
+    still: np.ndarray | None = None  # M bool: the blobs shaped like a streak that do not move (still_streaks); None: no motion
 
     @cached_property
     def integral(self) -> np.ndarray:
@@ -158,12 +159,13 @@ class CameraEvidence:
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
         blobs = find_blobs(counted, blob_method, min_blob_area, rows)
         origins, directions = camera.rays(blobs.centres)
+        still = still_streaks(blobs, moving) if moving is not None else None
         seeds = None
         if ball is not None or moving is not None:
             seeds = _seeds(
-                camera, blobs, origins, directions, moving, soft if ball is not None else None, blob_method, min_blob_area, ball, rows
+                camera, blobs, origins, directions, moving, soft if ball is not None else None, blob_method, min_blob_area, ball, rows, still
             )
-        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted)
+        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still)
 
 
 def on_grid(camera: Camera, scale: int) -> Camera:
@@ -294,17 +296,29 @@ def _kept_streaks(
     return kept
 
 
-def _still_streaks(blobs: Blobs, moves: np.ndarray) -> np.ndarray:
-    """Per blob: shaped like a streak (blobs.streaks: as wide as a ball, and longer) but not moving (``moves``): a
-    ball is smeared into a streak only by its motion, so this is a rod, a stripe, the rim of a disc seen edge on, of
-    the ball's colour, which would seed particles wherever its width is a ball's. Seeded, such clutter was tracked
-    from the first frames and, kept out of the background by its track, for ever (static_props tune seed 38: a rod,
-    0.144 -> 0.956; hue_wall 39: a wall's stripes, 0.044 -> 0.922; white_ball 15: a shelf's edge, 0.493 -> 0.741).
-    A fast ball's streak moves (fast_ball tune 0-19 unchanged); one ball merged with another or with scenery is no
-    seed of one ball either way. Blobs without shapes (the histogram finder) are no streaks."""
-    if blobs.swept is None:
-        return np.zeros(len(blobs), bool)
-    return blobs.swept & ~moves
+# A streak-shaped blob under this share of whose pixels move is still: a rod, a stripe (none move). A ball at the end of
+# an arm of its hue moved by the hand shows its edges moving (a uniform arm changes at its edges only).
+STILL_SHARE = 0.1
+
+
+def still_streaks(blobs: Blobs, moving: np.ndarray | None) -> np.ndarray:
+    """Per blob: shaped like a streak (Blobs.swept: as wide as a ball, and longer) with under STILL_SHARE of its pixels
+    in ``moving`` (H x W 0/1; None: no motion, nothing is known still). A ball is smeared into a streak only by its
+    motion, so this is a rod, a stripe, the rim of a disc seen edge on, of the ball's colour, which would seed particles
+    wherever its width is a ball's, and whose end fills a ball's core with most of its ring empty. Such clutter was
+    tracked from the first frames and, kept out of the background by its own track, for ever (static_props tune
+    seeds 38, 40: a rod, a plank; hue_wall 39: a wall's stripes; white_ball 15: a shelf's edge). Blobs without shapes
+    (the histogram finder) are no streaks."""
+    out = np.zeros(len(blobs), bool)
+    if moving is None or blobs.swept is None or not blobs.swept.any():
+        return out
+    s, labels = blobs.label_scale, blobs.labels
+    sampled = moving[::s, ::s][: labels.shape[0], : labels.shape[1]]  # the pixels the labels stand for
+    moved = np.bincount(labels[sampled > 0], minlength=len(blobs.label_blob)) * (s * s)
+    per_blob = np.zeros(len(blobs))
+    mine = blobs.label_blob >= 0
+    per_blob[blobs.label_blob[mine]] = moved[mine]
+    return blobs.swept & (per_blob < STILL_SHARE * blobs.areas)
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
@@ -313,12 +327,12 @@ DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blo
 SURE = 191
 
 
-def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_blob_area, ball, rows=None) -> Seeds:
+def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_blob_area, ball, rows=None, still=None) -> Seeds:
     """Ball-like blobs of the colour mask, then those of its moving part that are not the same blob again
     (a ball moving in front of a wall of its colour is a blob of its own only in the moving part), then, when
     a colour blob was no ball (a ball merged with scenery of its hue: a hand, a prop, a wall), the ball-like
     blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet.
-    With motion, a streak that does not move is no ball (``_still_streaks``)."""
+    With motion, a streak that does not move (``still``, still_streaks) is no ball."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     mb = find_blobs(moving, blob_method, min_blob_area, rows) if moving is not None else None
     moves = np.zeros(len(blobs), bool)  # a colour blob that is a moving one too moves
@@ -327,8 +341,8 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
         same = (dist < DUPLICATE_PX) & (mb.areas[:, None] > 0.7 * blobs.areas[None])
         moves = same.any(axis=0)
     no_ball = not keep.all()  # a colour blob that is no ball: perhaps a ball merged with scenery (the sure colour, below)
-    if ball is not None and mb is not None:
-        keep &= ~_still_streaks(blobs, moves)
+    if ball is not None and still is not None:
+        keep &= ~still
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
     moved = [moves[keep]]
     widths = [blobs.ball_radii()[keep]]
@@ -352,8 +366,7 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
         sb = find_blobs(sure, blob_method, min_blob_area, rows)
         new = ball_like(sb, camera.focal_px, *ball)
-        if mb is not None:
-            new &= ~_still_streaks(sb, np.zeros(len(sb), bool))  # none of these is checked for motion
+        new &= ~still_streaks(sb, moving)
         held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
         if len(sb) and len(held_c):
             dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)

@@ -373,13 +373,16 @@ def ball_shape_likelihood(
     label_blob,
     label_scale,
     streak,
+    still_width,
     streak_major,
     streak_area,
 ):
     """Multiply ``out`` (N) by one camera's ball-shape factor for every particle: at the particle's depth the
     ball spans r = f R / z pixels; its core should be full of evidence and the ring around it empty, in the
     colour map (its pixels worth up to ``colour_scale``) or (``use_moving``) the moving-colour map (summed-area
-    tables), floored at ``floor``. Outside
+    tables), floored at ``floor``. On a streak of the mask (``streak``: a ball swept along it), also the capsule
+    it would sweep, in the moving map where there is one; on a still one about the ball's width (``still_width``, half
+    widths: a rod, gather.still_streaks) the colour's centre-surround does not count. Outside
     the image or behind the camera: the floor; hidden from this camera (``eye``) by an occluding ball: 1; partly hidden: the core's fill alone."""
     uv, front, z = project_points(positions, R, t, K, k, tilt)
     hidden = hidden_by_balls(eye, positions, occ_centres, occ_radii)
@@ -398,17 +401,22 @@ def ball_shape_likelihood(
             c, a = _box_count(colour, u, v, max(inner * r, 0.5))
             out[i] *= max(c / (a * colour_scale) if a > 0.0 else 0.0, floor)
             continue
-        best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor, False), floor)
+        b = -1  # the blob of the mask under the particle, where it is a streak
+        if streak.shape[0]:
+            b = label_blob[labels[min(int(v) // label_scale, labels.shape[0] - 1), min(int(u) // label_scale, labels.shape[1] - 1)]]
+        on_streak = b >= 0 and streak[b]
+        if on_streak and 0.5 * r <= still_width[b] <= 2.0 * r:  # a rod's end fills a ball's core, most of its ring empty
+            best = floor  # (a ball's blob cut into slivers by the colour model has thin still streaks on it: not those)
+        else:
+            best = max(_centre_surround(colour, u, v, r, inner, mid, outer, colour_scale, floor, False), floor)
         if use_moving:
             best = max(best, _centre_surround(moving, u, v, r, inner, mid, outer, 1.0, best, True))
-        if streak.shape[0]:  # on a streak (a blob of the mask that is one): also a ball swept along it
-            b = label_blob[labels[min(int(v) // label_scale, labels.shape[0] - 1), min(int(u) // label_scale, labels.shape[1] - 1)]]
-            if b >= 0 and streak[b]:
-                length = (streak_area[b] - math.pi * r * r) / (4.0 * r)  # a capsule's area is pi r^2 + 4 r length
-                if length > 0.25 * r:
-                    swept, scale = (moving, 1.0) if use_moving else (colour, colour_scale)  # a streak moves: on the moving map if any
-                    c, a = _box_count(swept, u, v, max(inner * r, 0.5))
-                    core = c / (a * scale) if a > 0.0 else 0.0
-                    if core > best:
-                        best = max(best, _capsule(swept, u, v, r, length, streak_major[b, 0], streak_major[b, 1], core, scale))
+        if on_streak:  # also a ball swept along the streak
+            length = (streak_area[b] - math.pi * r * r) / (4.0 * r)  # a capsule's area is pi r^2 + 4 r length
+            if length > 0.25 * r:
+                swept, scale = (moving, 1.0) if use_moving else (colour, colour_scale)  # a streak moves: on the moving map if any
+                c, a = _box_count(swept, u, v, max(inner * r, 0.5))
+                core = c / (a * scale) if a > 0.0 else 0.0
+                if core > best:
+                    best = max(best, _capsule(swept, u, v, r, length, streak_major[b, 0], streak_major[b, 1], core, scale))
         out[i] *= best

@@ -161,6 +161,26 @@ def test_a_streak_that_does_not_move_seeds_nothing():
     assert len(seeds) == 3  # no motion evidence: every ball-like blob
 
 
+def test_a_streak_whose_edges_move_is_not_still():
+    """A uniform thing changes only at its edges when it moves: an arm of the ball's hue moving a ball at its end is
+    a streak-shaped blob with a rim of moving pixels, not a still rod (``still_streaks`` asks that under a tenth of a
+    streak's pixels move). A rod with a speck of sensor noise on it is still."""
+    from stereotrack.evidence.gather import still_streaks
+
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.line(mask, (100, 100), (220, 130), 1, 14)  # the arm
+    cv2.line(mask, (300, 300), (420, 330), 1, 14)  # the rod
+    moving = np.zeros_like(mask)
+    cv2.line(moving, (100, 100), (220, 130), 1, 14)
+    cv2.line(moving, (104, 101), (216, 129), 0, 8)  # only its rim moves: about a third of its pixels
+    moving[315, 360] = 1  # noise on the rod
+    b = find_blobs(mask)
+    order = np.argsort(b.centres[:, 0])
+    assert b.swept.all()
+    assert still_streaks(b, moving)[order].tolist() == [False, True]
+    assert not still_streaks(b, None).any()  # no motion: nothing is known still
+
+
 def test_a_small_ball_touching_a_bigger_one_is_not_a_streak():
     """Long and filled like a streak, no gap at its centroid (which lies inside the bigger ball), but narrow where
     the two touch: as wide all along is what a streak is (pendulum4: a far ball behind a near one)."""

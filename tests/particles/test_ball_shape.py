@@ -96,6 +96,42 @@ def test_a_streak_scores_at_its_centre_as_a_ball_swept_along_it():
         assert shape(np.array([BALL - 0.4 * ray]), views, None)[0] < 0.5 * at_centre
 
 
+def test_the_end_of_a_still_rod_of_the_balls_colour_scores_the_floor():
+    """A rod as wide as the ball is the streak a fast ball would leave, but it does not move: with motion evidence its
+    end (which fills a ball's core and leaves most of its ring empty) scores the floor in every camera, where without
+    motion it scores near a ball (static_props tune seed 40: a plank's end was tracked from the fourth frame to the
+    last). The same streak moving still scores as a ball swept along it."""
+    from stereotrack.evidence.gather import CameraEvidence
+
+    rig = default_rig()
+    shape = BallShape(RADIUS, 1 / 25)
+    velocity = np.array([0.12, 0.0, 0.0])
+    masks = _streak_masks(rig, BALL, velocity)
+    end = BALL + velocity  # a ball at rest at the rod's end
+    still = tuple(CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks))
+    assert shape(end[None], evidence(rig, masks), None)[0] > 0.2  # without motion: the rod's end looks like a ball
+    assert shape(end[None], still, None)[0] <= (1 / 25) ** 2 * 1.0001
+    assert shape(BALL[None], _moving(rig, masks), None)[0] > 0.3
+
+
+def test_a_ball_with_thin_still_slivers_on_it_scores_as_a_ball():
+    """The colour model can cut a held ball's blob into pieces, some of them thin still slivers shaped like a streak;
+    a particle on such a sliver is still judged by the ball's disc (only a still streak about the ball's width is a
+    rod: hands tune seed 19 lost its ball without this)."""
+    from stereotrack.evidence.gather import CameraEvidence
+
+    rig = default_rig()
+    shape = BallShape(RADIUS, 1 / 25)
+    masks, _ = disc_masks(rig, BALL[None])
+    for cam, m in zip(rig.cameras, masks):
+        u, v = (int(round(x)) for x in cam.project(BALL[None])[0][0])
+        m[v - 5 : v - 2, u - 20 : u + 20] = 0  # two gaps cut a sliver 5 pixels high out of the disc's middle
+        m[v + 3 : v + 6, u - 20 : u + 20] = 0
+    still = tuple(CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks))
+    assert any(v.still is not None and v.still.any() for v in still)  # the sliver is a still streak
+    assert shape(BALL[None], still, None)[0] > 0.3
+
+
 def _moving(rig, masks):
     """Evidence where everything of the colour moves: the moving map is the mask."""
     from stereotrack.evidence.gather import CameraEvidence

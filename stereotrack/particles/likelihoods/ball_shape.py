@@ -10,7 +10,9 @@ only. Per camera the factor is
 
 in O(1) from the summed-area table of the colour mask, and of the moving
 part of it (evidence/motion.py): a ball moving in front of a wall of its
-own colour is a ball in the moving map. The best of the two counts,
+own colour is a ball in the moving map (and on a streak of the mask, a
+ball swept along it; on a still streak about the ball's width, a rod's
+end, the colour does not count). The best of the two counts,
 floored (no probability wells) and multiplied over cameras; a camera whose
 view a ball of another colour blocks says nothing. Boxes stand in for
 discs: the core is the square inside the disc, the ring lies between
@@ -24,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ...config import Target, TrackerSettings
-from ...evidence.blobs import Blobs, streaks
+from ...evidence.blobs import streaks
 from ...evidence.gather import CameraEvidence
 from ...results import TrackedBalls
 from ..kernels import ball_shape_likelihood
@@ -56,7 +58,7 @@ class Model:
             colour, scale = (v.soft_integral, 255.0) if v.soft_integral is not None else (v.integral, 1.0)
             ball_shape_likelihood(
                 out, positions, *v.camera._kernel_arrays, colour, scale, v.moving_integral if moving else v.integral, moving,
-                self.radius, CORE, MID, OUTER, self.floor, v.camera.centre, centres, radii, *_streaks(v.blobs),
+                self.radius, CORE, MID, OUTER, self.floor, v.camera.centre, centres, radii, *_streaks(v),
             )  # fmt: skip
         return out
 
@@ -66,12 +68,16 @@ BallShape = Model
 _NO_LABELS, _NO_BLOBS = np.zeros((1, 1), np.int32), np.zeros(1, np.int64)
 
 
-def _streaks(blobs: Blobs) -> tuple:
+def _streaks(view: CameraEvidence) -> tuple:
     """The kernel's view of a camera's streaks: label image, label -> blob, its scale, and per blob whether it is a
-    streak, its direction and its area (empty when the blob finder gives no labels or there is no streak)."""
+    streak, the half width of a still one (gather.still_streaks; 0: it moves), its direction and its area (empty when
+    the blob finder gives no labels or there is no streak)."""
+    blobs = view.blobs
+    none = _NO_LABELS, _NO_BLOBS, 1, np.zeros(0, np.bool_), np.zeros(0), np.zeros((0, 2)), np.zeros(0)
     if blobs.labels is None or blobs.major is None or not len(blobs):
-        return _NO_LABELS, _NO_BLOBS, 1, np.zeros(0, np.bool_), np.zeros((0, 2)), np.zeros(0)
+        return none
     is_streak = blobs.swept if blobs.swept is not None else streaks(blobs.areas, blobs.axes)  # as the blob finder judged it
     if not is_streak.any():
-        return _NO_LABELS, _NO_BLOBS, 1, np.zeros(0, np.bool_), np.zeros((0, 2)), np.zeros(0)
-    return blobs.labels, blobs.label_blob, blobs.label_scale, is_streak, blobs.major, blobs.areas.astype(float)
+        return none
+    still_width = np.where(view.still, blobs.axes[:, 1], 0.0) if view.still is not None else np.zeros(len(blobs))
+    return blobs.labels, blobs.label_blob, blobs.label_scale, is_streak, still_width, blobs.major, blobs.areas.astype(float)
