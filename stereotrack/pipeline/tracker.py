@@ -200,6 +200,7 @@ class Tracker:
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 *self.moving_ranges[t.name],
                 self._faint(t, j, small_halved),
+                not t.any_hue,  # hued: a white ball's colour is the room's (white_ball tune seeds 2, 15 lost their ball with the rule)
             )
             for t in self.config.targets
         }
