@@ -46,6 +46,14 @@ CORE = 0.7  # the part of a tracked ball's disc (in its radius) whose pixels tea
 # never moved. white_ball tune seeds 0-19 at 3 / 6 / 8 / 10 / 20: median 0.826 / 0.833 / 0.837 / 0.844 / 0.806, worst
 # 0.007 / 0.274 / 0.226 / 0.252 / 0.330 (at 20 a still ball's colour no longer counts: seed 9 0.944 -> 0.794).
 WHITE_ODDS = 8.0
+# A colour the room holds more than SPREAD times as often as the tracked balls' cores (every other pixel against
+# the cores, this frame) is not taught as the ball's: it is a hand's, a face's, a wall's. A ball held in a hand, or
+# a track that stayed on the hand it was thrown from, has skin in its core; taught, skin became the ball's and every
+# hand a ball (hands tune seed 7: the ball's histogram was 60 per cent skin after 25 frames). Props of the ball's hue
+# spread its own colour over the room, and it is then taught less: at 4 static_props tune seed 6 lost its ball
+# (0.963 -> -0.048); at 10 it holds (0.956), hands tune 7 / 12 / 19 0.967 / 0.833 / 0.900; at 20 hands seed 12 0.400.
+# Not for a ball of every hue: a white ball's colour is the room's by nature (WHITE_ODDS).
+SPREAD = 10.0
 
 
 def _normalised(hist: np.ndarray) -> np.ndarray:
@@ -80,11 +88,12 @@ class ColourModel:
     rate: float = 0.05  # weight of each frame in the running averages
     odds: float = 1.0  # a colour is the ball's when it is this many times likelier on the ball than in the background
     prior: float = 1.0  # the share of the ball's histogram that is still its first one (the range's box, or a file's)
+    spread: float = 0.0  # a colour the room holds this many times as often as the balls' cores is not taught (0: every one is)
 
     @classmethod
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
-        odds = WHITE_ODDS if target.any_hue else 1.0
-        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate, odds)
+        odds, spread = (WHITE_ODDS, 0.0) if target.any_hue else (1.0, SPREAD)
+        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate, odds, spread=spread)
 
     @classmethod
     def from_region(cls, target: Target, hsv: np.ndarray, ball: np.ndarray) -> ColourModel:
@@ -110,13 +119,16 @@ class ColourModel:
         self, hsv: np.ndarray, in_range: np.ndarray, centres_uv: np.ndarray | None = None, radii_px: np.ndarray | None = None
     ) -> None:
         """Learn this frame: the ball's colours from the pixels in range under the discs of the tracked balls
-        (pixel centres and apparent radii; their cores), the background's from every other pixel."""
+        (pixel centres and apparent radii; their cores) but those the room holds far more of (``spread``), the
+        background's from every other pixel."""
         h, w = hsv.shape[:2]
         discs = _NO_DISCS
         if centres_uv is not None and len(centres_uv):
             grid = (-(-h // LEARN_STEP), -(-w // LEARN_STEP))  # the subsampled grid the histograms count on
             discs = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
         on_ball, rest = hs_histograms(hsv, LEARN_STEP, in_range, discs)
+        if self.spread:
+            on_ball[self.spread * on_ball < rest] = 0  # the room's colours (SPREAD)
         if on_ball.any():
             self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
             self.prior *= 1 - self.rate

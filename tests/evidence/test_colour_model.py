@@ -160,3 +160,27 @@ def test_a_white_thing_near_the_white_balls_colour_is_the_rooms_not_the_balls():
     p = model.probability(frame())
     assert (p[110:240, 430:510] > 127).mean() < 0.2  # little of the door is kept
     assert (p[290:310, 190:210] > 127).mean() > 0.8  # the ball is
+
+
+def test_a_hand_under_a_held_ball_is_not_taught_as_the_ball():
+    """A ball held in a hand (or a track that stayed on the hand it was thrown from) has skin in its core. Skin
+    of the range's hue covers much of the room (arms, face): it stays the room's colour, the ball's stays the ball's."""
+    orange = Target("orange", (4, 88, 75), (26, 255, 255))
+    skin, ball = (8, 110, 120), (17, 210, 215)
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 60, 150)  # a blue-grey wall, out of the range
+    cv2.rectangle(hsv, (100, 150), (260, 470), skin, -1)  # arms and a face: a tenth of the view
+    cv2.circle(hsv, (260, 150), 18, ball, -1)  # the ball in the hand, at the skin's corner
+    in_range = target_mask(hsv, orange)
+    model = ColourModel.for_target(orange)
+    for _ in range(30):
+        model.learn(hsv, in_range, np.array([[250.0, 165.0]]), np.array([18.0]))  # the track half in the hand
+    p = model.probability(hsv) / 255.0
+    assert p[300, 180] < 0.1  # skin: not the ball (taught, 0.74)
+    assert p[145, 265] > 0.9  # the ball
+
+
+def test_a_white_ball_learns_its_colour_where_the_room_holds_it_too():
+    """A white ball's colour is the room's by nature: every colour of its core is taught (WHITE_ODDS weighs it)."""
+    white = Target("white", (0, 0, 150), (179, 50, 255))
+    assert ColourModel.for_target(white).spread == 0.0 and ColourModel.for_target(PINK).spread > 0.0
