@@ -52,7 +52,9 @@ WHITE_ODDS = 8.0
 # hand a ball (hands tune seed 7: the ball's histogram was 60 per cent skin after 25 frames). Props of the ball's hue
 # spread its own colour over the room, and it is then taught less: at 4 static_props tune seed 6 lost its ball
 # (0.963 -> -0.048); at 10 it holds (0.956), hands tune 7 / 12 / 19 0.967 / 0.833 / 0.900; at 20 hands seed 12 0.400.
-# Not for a ball of every hue: a white ball's colour is the room's by nature (WHITE_ODDS).
+# Only the colours of things that move (MOVED: hands, arms): a still prop of the ball's own colour is no hand, and
+# refusing its colour kept the ball from learning its own (static_props tune seed 49: 0.944 -> -0.289). Not for a
+# ball of every hue: a white ball's colour is the room's by nature (WHITE_ODDS).
 SPREAD = 10.0
 # But a colour over more than WALL of the view (this frame's pixels off the cores) is a wall's, not a thing's: where
 # a wall (a curtain, a poster) of the ball's hue is, the ball's colour is the wall's too. Refused, the ball never
