@@ -46,6 +46,34 @@ CORE = 0.7  # the part of a tracked ball's disc (in its radius) whose pixels tea
 # never moved. white_ball tune seeds 0-19 at 3 / 6 / 8 / 10 / 20: median 0.826 / 0.833 / 0.837 / 0.844 / 0.806, worst
 # 0.007 / 0.274 / 0.226 / 0.252 / 0.330 (at 20 a still ball's colour no longer counts: seed 9 0.944 -> 0.794).
 WHITE_ODDS = 8.0
+# A colour the room holds more than SPREAD times as often as the tracked balls' cores (every other pixel against
+# the cores, this frame) is not taught as the ball's: it is a hand's, a face's, a wall's. A ball held in a hand, or
+# a track that stayed on the hand it was thrown from, has skin in its core; taught, skin became the ball's and every
+# hand a ball (hands tune seed 7: the ball's histogram was 60 per cent skin after 25 frames). Props of the ball's hue
+# spread its own colour over the room, and it is then taught less: at 4 static_props tune seed 6 lost its ball
+# (0.963 -> -0.048); at 10 it holds (0.956), hands tune 7 / 12 / 19 0.967 / 0.833 / 0.900; at 20 hands seed 12 0.400.
+# Only the colours of things that move (MOVED: hands, arms): a still prop of the ball's own colour is no hand, and
+# refusing its colour kept the ball from learning its own (static_props tune seed 49: 0.944 -> -0.289). Not for a
+# ball of every hue: a white ball's colour is the room's by nature (WHITE_ODDS).
+SPREAD = 10.0
+# But a colour over more than WALL of the view (this frame's pixels off the cores) is a wall's, not a thing's: where
+# a wall (a curtain, a poster) of the ball's hue is, the ball's colour is the wall's too. Refused, the ball never
+# learnt its own colour (its histogram went to its rim's blend with the room) and was not seen at rest (hue_wall
+# tune seed 20: its curtain 19 per cent of the view, 330 times the cores; 0.658 -> -0.283 with SPREAD alone).
+# Hands hold at most 4 per cent of the view in range (hands tune seeds 0-39), a hand's skin per bin 1 per cent.
+WALL = 0.02
+# The colours of things of the room that move (hands, arms), what evidence_maps (evidence/kernels.py) takes a hand's
+# colour for: those more than MOVED of whose pixels in the room move, on average (the running share of the view, off
+# the balls' discs at OFF_BALL radii: a ball's rim and blur are its own), over at least THING of the view (rarer
+# colours are a ball's blend with what it passes: the clutter preset lost 0.005 with them), but a wall's (WALL).
+# A static prop of the ball's colour is none: the ball is not taught that colour (SPREAD), and its pixels of it moving
+# before the wall were lost while every colour less likely the ball's counted (static_props tune seed 28: 0.967 ->
+# 0.644). Skin moves at 0.19-0.79 of its pixels, each colour of it over 0.0007-0.012 of the view (hands tune seed
+# 7); a wall of the ball's hue at 0.01-0.09 (hue_wall tune seed 20). MOVED (without THING) at 0.05: hands seed 38
+# 0.574, hue_wall 20 0.589; at 0.15 hands seed 12 -0.367; at 0.02 (with THING) 0.822 / 0.667 / 0.789.
+MOVED = 0.02
+OFF_BALL = 1.5
+THING = 0.0005
 
 
 def _normalised(hist: np.ndarray) -> np.ndarray:
@@ -80,11 +108,14 @@ class ColourModel:
     rate: float = 0.05  # weight of each frame in the running averages
     odds: float = 1.0  # a colour is the ball's when it is this many times likelier on the ball than in the background
     prior: float = 1.0  # the share of the ball's histogram that is still its first one (the range's box, or a file's)
+    spread: float = 0.0  # a colour the room holds this many times as often as the balls' cores is not taught (0: every one is)
+    moving: np.ndarray | None = None  # H_BINS x S_BINS, with ``spread``: the share of the view the room's moving pixels of each colour are
+    things: np.ndarray | None = None  # H_BINS x S_BINS uint8, 1: a colour of things of the room that move (MOVED); set by ``table``
 
     @classmethod
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
-        odds = WHITE_ODDS if target.any_hue else 1.0
-        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate, odds)
+        odds, spread = (WHITE_ODDS, 0.0) if target.any_hue else (1.0, SPREAD)
+        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate, odds, spread=spread)
 
     @classmethod
     def from_region(cls, target: Target, hsv: np.ndarray, ball: np.ndarray) -> ColourModel:
@@ -94,11 +125,14 @@ class ColourModel:
 
     def table(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) x 255 per hue-saturation bin (H_BINS x S_BINS uint8): what a pixel of that colour
-        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet."""
+        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet. With ``spread`` and what
+        moved learnt, ``things`` is set from the same state."""
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         odds = 1.0 + (self.odds - 1.0) * (1.0 - self.prior)  # the learnt share takes the odds
         ratio = self.ball / np.maximum(self.ball + odds * self.background, 1e-12)
+        if self.spread and self.moving is not None:
+            self.things = ((self.moving > MOVED * self.background) & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
         return np.clip(np.rint(255.0 * ratio), 0, 255).astype(np.uint8)
 
     def probability(self, hsv: np.ndarray) -> np.ndarray:
@@ -107,21 +141,41 @@ class ColourModel:
         return cv2.calcBackProject([hsv], [0, 1], self.table(hsv).astype(np.float32), _RANGES, 1)
 
     def learn(
-        self, hsv: np.ndarray, in_range: np.ndarray, centres_uv: np.ndarray | None = None, radii_px: np.ndarray | None = None
+        self,
+        hsv: np.ndarray,
+        in_range: np.ndarray,
+        centres_uv: np.ndarray | None = None,
+        radii_px: np.ndarray | None = None,
+        foreground: np.ndarray | None = None,
     ) -> None:
         """Learn this frame: the ball's colours from the pixels in range under the discs of the tracked balls
-        (pixel centres and apparent radii; their cores), the background's from every other pixel."""
+        (pixel centres and apparent radii; their cores) but those the room holds far more of (``spread``), the
+        background's from every other pixel; with ``spread`` and the ``foreground`` (0/1, any grid the image's size
+        divides), the colours of what moved off the balls (``moving``)."""
         h, w = hsv.shape[:2]
         discs = _NO_DISCS
         if centres_uv is not None and len(centres_uv):
             grid = (-(-h // LEARN_STEP), -(-w // LEARN_STEP))  # the subsampled grid the histograms count on
             discs = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
         on_ball, rest = hs_histograms(hsv, LEARN_STEP, in_range, discs)
+        if self.spread:
+            moves = self.moving > MOVED * self.background if self.moving is not None and self.background is not None else False
+            on_ball[(self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves] = 0  # a moving thing's colours (SPREAD), not a wall's or a prop's
         if on_ball.any():
             self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
             self.prior *= 1 - self.rate
         background = _normalised(rest)
         self.background = background if self.background is None else (1 - self.rate) * self.background + self.rate * background
+        if self.spread and foreground is not None:  # MOVED
+            fh, fw = foreground.shape
+            rows = np.minimum(np.arange(0, h, LEARN_STEP) * fh // h, fh - 1)
+            cols = np.minimum(np.arange(0, w, LEARN_STEP) * fw // w, fw - 1)
+            moved = foreground[np.ix_(rows, cols)]
+            if discs.shape[0]:
+                moved = moved & (disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP, OFF_BALL) == 0)
+            sampled = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
+            moving = hs_histogram(sampled, moved.astype(np.uint8)) / max(float(rest.sum()), 1.0)
+            self.moving = moving if self.moving is None else (1 - self.rate) * self.moving + self.rate * moving
 
     # ----------------------------------------------------------------- file
 

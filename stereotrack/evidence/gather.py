@@ -101,6 +101,7 @@ class CameraEvidence:
         motion_range: Target | None = None,
         streak_range: Target | None = None,
         faint: Faint | None = None,
+        things: np.ndarray | None = None,
     ) -> CameraEvidence:
         """Blobs and rays of a mask (0/1, the target's range). With the camera's ``foreground`` (0/1, at the
         image's size or a whole fraction of it: motion.py keeps it at half), the moving part of the mask is a
@@ -111,7 +112,11 @@ class CameraEvidence:
         kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
         the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
-        ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move.
+        ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move;
+        with ``things`` (colour_model.ColourModel.things: the colours of things of the room in range, a hand's), a
+        pixel of such a colour less likely the ball's than the room's moves only where it replaced a colour of
+        the range (a ball before a wall of its hue), not one out of it: a skin-coloured hand before a wall is no
+        ball (hands tune seed 7: the moving hands were kept as balls whatever the model said).
         With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
         ball); with ``faint`` changes too (motion.py: above a lower threshold, on the foreground's grid), so do the
@@ -146,6 +151,7 @@ class CameraEvidence:
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
                 background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
+                things if things is not None else _NO_TABLE,
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)

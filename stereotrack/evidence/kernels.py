@@ -150,7 +150,7 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area):
 
 
 @kernel
-def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind):
+def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind, things):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
 
@@ -164,7 +164,10 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
       only where the foreground is set (a whole-image mask of it cost more than the rest of this pass); with the table and the background
       in HSV (``behind``, on the foreground's grid; empty: none), a pixel in range moves only where it is at
       least as likely the ball's colour as what the background held there (where a ball was and a wall of its
-      hue is now, the wall moved in no sense).
+      hue is now, the wall moved in no sense); with ``things`` too (per bin as the table, 1: a colour of a thing
+      of the room, a hand's; empty: none), a pixel of such a colour out of the mask (p <= 127) moves only where
+      what it replaced was of the table's colours (p above 0: a ball before a wall of its hue), not where it came
+      before a colour out of them (a skin-coloured hand before a wall).
     Rows ``rows_in_range`` marks 0 are passed over: the caller marks the rows with a pixel in range and, with a
     motion range, those with a foreground cell (most rows hold neither: the range is a few balls).
     Returns how many moving pixels are out of the range (with a motion range: its paler pixels)."""
@@ -174,6 +177,7 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
     use_fg = foreground.shape[0] > 0
     use_behind = use_table and use_fg and behind.shape[0] > 0
     own_motion_range = motion_range.shape[0] > 0
+    use_things = use_behind and things.shape[0] > 0
     for y in range(h):
         if not rows_in_range[y]:
             continue
@@ -191,7 +195,9 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
                 if moves and own_motion_range:
                     moves = _in_bounds(hsv[y, x, 0], hsv[y, x, 1], hsv[y, x, 2], motion_range)
                 if moves and use_behind and inside:
-                    moves = p >= table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
+                    was = table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
+                    thing = use_things and things[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP] != 0
+                    moves = p >= was and (p > 127 or was > 0 or not thing)
                 moving[y, x] = 1 if moves else 0
                 if moves and not inside:
                     pale += 1

@@ -195,11 +195,12 @@ class Tracker:
                 max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
                 shaded[t.name] if t.name in shaded else foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                self._colour_table(t, j, cm, confirmed),
+                self._colour_table(t, j, cm, confirmed, foreground),
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 *self.moving_ranges[t.name],
                 self._faint(t, j, small_halved),
+                self.colour_models[t.name][j].things if self.colour_models else None,
             )
             for t in self.config.targets
         }
@@ -227,7 +228,7 @@ class Tracker:
                 out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
         return out
 
-    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls) -> np.ndarray | None:
+    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls, foreground: np.ndarray | None = None) -> np.ndarray | None:
         """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
         model learns this frame, the ball's colours under the confirmed tracks of the target."""
         if self.colour_models is None:
@@ -237,7 +238,7 @@ class Tracker:
         cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
-        model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]))
+        model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]), foreground)
         return table
 
 

@@ -160,3 +160,89 @@ def test_a_white_thing_near_the_white_balls_colour_is_the_rooms_not_the_balls():
     p = model.probability(frame())
     assert (p[110:240, 430:510] > 127).mean() < 0.2  # little of the door is kept
     assert (p[290:310, 190:210] > 127).mean() > 0.8  # the ball is
+
+
+def _held_ball(skin=(8, 110, 120), ball=(17, 210, 215)):
+    """A ball in a hand, or on a prop, of the orange range's hue: the frame (HSV), the range and its mask."""
+    orange = Target("orange", (4, 88, 75), (26, 255, 255))
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 60, 150)  # a blue-grey wall, out of the range
+    cv2.rectangle(hsv, (210, 150), (260, 240), skin, -1)  # a hand: 1.5 per cent of the view (a wall's over WALL)
+    cv2.circle(hsv, (260, 150), 18, ball, -1)  # the ball in the hand, at the skin's corner
+    return hsv, orange, target_mask(hsv, orange)
+
+
+def test_a_hand_under_a_held_ball_is_not_taught_as_the_ball():
+    """A ball held in a hand (or a track that stayed on the hand it was thrown from) has skin in its core. Skin
+    of the range's hue, on things of the room that move (arms, hands), stays the room's colour; the ball's stays
+    the ball's."""
+    hsv, orange, in_range = _held_ball()
+    moving = np.zeros((240, 320), np.uint8)  # motion.py's grid
+    moving[75:120, 105:125] = 1  # the hand moves (its lower part, off the ball)
+    model = ColourModel.for_target(orange)
+    for _ in range(30):
+        model.learn(hsv, in_range, np.array([[250.0, 165.0]]), np.array([18.0]), moving)  # the track half in the hand
+    p = model.probability(hsv) / 255.0
+    assert p[200, 230] < 0.5  # skin: out of the mask (taught, 0.74; the first frame, before it moved, taught some)
+    assert p[145, 265] > 0.9  # the ball
+
+
+def test_a_still_prop_under_a_ball_is_taught_as_the_ball():
+    """A prop of the ball's own colour that never moves (a box the ball rests on) is no hand: its colour is the
+    ball's, and refusing it kept the ball from learning its colour (static_props tune seed 49: 0.944 -> -0.289)."""
+    hsv, orange, in_range = _held_ball(skin=(17, 210, 215))  # the "hand" is of the ball's colour, and still
+    model = ColourModel.for_target(orange)
+    for _ in range(30):
+        model.learn(hsv, in_range, np.array([[250.0, 165.0]]), np.array([18.0]), np.zeros((240, 320), np.uint8))
+    assert (model.probability(hsv) / 255.0)[145, 265] > 0.5  # the ball's colour stays the ball's
+
+
+def test_a_white_ball_learns_its_colour_where_the_room_holds_it_too():
+    """A white ball's colour is the room's by nature: every colour of its core is taught (WHITE_ODDS weighs it)."""
+    white = Target("white", (0, 0, 150), (179, 50, 255))
+    assert ColourModel.for_target(white).spread == 0.0 and ColourModel.for_target(PINK).spread > 0.0
+
+
+def test_a_ball_before_a_wall_of_its_own_colour_learns_its_colour():
+    """The room may hold the ball's colour far more than the tracked cores do where a wall of the ball's hue is
+    (hue_wall tune seed 20: a curtain, 19 per cent of the view): a colour over more than WALL of the view is a
+    wall's, not a thing's like skin, and is taught (refused, the ball's histogram stayed the range's box)."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (0, 0, 120)  # a grey room
+    hsv[:, :200] = BALL_HSV  # a curtain of the ball's very colour
+    cv2.circle(hsv, (400, 240), 18, BALL_HSV, -1)
+    model = ColourModel.for_target(PINK)
+    for _ in range(30):
+        model.learn(hsv, target_mask(hsv, PINK), np.array([[400.0, 240.0]]), np.array([18.0]))
+    assert model.probability(hsv)[240, 400] / 255.0 > 0.5  # (refused: 0.04)
+
+
+def test_the_colours_of_moving_things_of_the_room_are_things_not_a_still_props_or_a_walls():
+    """``things`` (what evidence_maps takes a hand's colour for): the colours of which more than MOVED of the
+    room's pixels move, off the tracked balls' discs (a ball's rim and blur are its own); not a static prop's of
+    the ball's colour (static_props tune seed 28), not a wall's (WALL), even where something of it moves, not a
+    colour rarer than THING."""
+    orange = Target("orange", (4, 88, 75), (26, 255, 255))
+    skin, ball, prop = (8, 110, 120), (17, 210, 215), (22, 160, 200)
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 60, 150)  # a blue-grey wall, out of the range
+    hsv[:, :160] = (12, 180, 200)  # a wall of the range's hue: a quarter of the view
+    cv2.rectangle(hsv, (200, 300), (250, 390), skin, -1)  # a hand: 1.5 per cent of the view
+    cv2.rectangle(hsv, (500, 350), (600, 470), prop, -1)  # a still prop
+    cv2.circle(hsv, (400, 150), 18, ball, -1)
+    hsv[40:48, 400:408] = blend = (24, 120, 180)  # a rare colour, a ball's blend with the room
+    foreground = np.zeros((240, 320), np.uint8)  # the background's grid: half the image's
+    foreground[150:195, 100:125] = 1  # the hand moves
+    cv2.circle(foreground, (200, 75), 12, 1, -1)  # the ball and its blur
+    foreground[100:120, 40:60] = 1  # something before the wall of the range's hue
+    foreground[20:24, 200:204] = 1  # the blend moves
+    model = ColourModel.for_target(orange)
+    for _ in range(10):
+        model.table(hsv)
+        model.learn(hsv, target_mask(hsv, orange), np.array([[400.0, 150.0]]), np.array([18.0]), foreground)
+    model.table(hsv)
+    bin_of = lambda c: (c[0] // 4, c[1] // 8)  # noqa: E731
+    assert model.things[bin_of(skin)] == 1
+    assert model.things[bin_of(prop)] == 0 and model.things[bin_of(ball)] == 0 and model.things[bin_of((12, 180))] == 0
+    assert model.things[bin_of(blend)] == 0  # rarer than THING
+    assert ColourModel.for_target(Target("white", (0, 0, 150), (179, 50, 255))).things is None  # a white ball: none

@@ -202,6 +202,49 @@ def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
     assert plain.moving[235:246, 195:206].all()  # without the background's colours, the ghost moves
 
 
+def test_a_hand_of_the_range_moving_before_a_wall_out_of_it_is_no_moving_evidence():
+    """A moving pixel in range but less likely the ball's than the room's, of a colour of things of the room that
+    move (``things``: a skin-coloured hand), moves only where it replaced a colour of the range: a hand before a
+    wall of the range's hue still moves, one before a wall out of the range does not. A colour less likely the
+    ball's but of no moving thing (a prop of the ball's colour, hue_wall and static_props: the ball itself) moves
+    before any wall; without ``things`` (a white ball) every one does."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.colour_model import H_BINS, HUE_STEP, S_BINS, SAT_STEP
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    wall, own_wall, skin, ball = (100, 60, 150), (17, 120, 200), (8, 110, 120), (20, 200, 200)
+    table = np.zeros((H_BINS, S_BINS), np.uint8)  # the wall out of the range: 0
+    table[17 // HUE_STEP, 120 // SAT_STEP], table[8 // HUE_STEP, 110 // SAT_STEP] = 30, 40  # in range, both the room's
+    table[20 // HUE_STEP, 200 // SAT_STEP] = 60  # the ball's colour, a prop's too
+    things = np.zeros((H_BINS, S_BINS), np.uint8)
+    things[8 // HUE_STEP, 110 // SAT_STEP] = 1  # skin moves in the room
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = wall
+    hsv[:, 320:] = own_wall
+    cv2.circle(hsv, (200, 240), 15, skin, -1)  # the hand, before the wall
+    cv2.circle(hsv, (450, 240), 15, skin, -1)  # and before a wall of the range's hue
+    cv2.circle(hsv, (100, 120), 15, ball, -1)  # the ball, before the wall
+    behind = np.zeros((240, 320, 3), np.uint8)
+    behind[:] = wall
+    behind[:, 160:] = own_wall
+    foreground = np.zeros((240, 320), np.uint8)
+    for u, v in ((100, 120), (225, 120), (50, 60)):
+        cv2.circle(foreground, (u, v), 8, 1, -1)
+    in_range = np.zeros((480, 640), np.uint8)
+    in_range[:, 320:] = 1
+    cv2.circle(in_range, (200, 240), 15, 1, -1)
+    cv2.circle(in_range, (100, 120), 15, 1, -1)
+    for known, before_wall in ((things, 0), (None, 1)):
+        ev = CameraEvidence.from_mask(
+            camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind, things=known
+        )
+        assert (ev.moving[235:246, 195:206] == before_wall).all()
+        assert ev.moving[235:246, 445:456].all()  # p 40 >= 30: it replaced a colour of the range
+        assert ev.moving[115:126, 95:106].all()  # the ball's colour is no moving thing's
+
+
 def _numpy_gain(image, background, step=8, scale=2):
     """The lighting's gain as motion.py measured it before the compiled pass: np.median per channel."""
     then = background[::step, ::step]
@@ -293,7 +336,7 @@ def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     rows = np.ones(121, np.uint8)
     pale = evidence_kernels.evidence_maps(
         in_range, rows, hsv, _NO_TABLE, foreground, _nearest(60, 121), _nearest(81, 163), range_bounds(streak_range(target)),
-        _NO_TABLE, _NO_TABLE, moving, _NO_HSV,
+        _NO_TABLE, _NO_TABLE, moving, _NO_HSV, _NO_TABLE,
     )  # fmt: skip
     out_of_range = cv2.countNonZero(cv2.subtract(moving, in_range))
     assert 0 < out_of_range < cv2.countNonZero(moving)
