@@ -169,7 +169,17 @@ class CameraEvidence:
         seeds = None
         if ball is not None or moving is not None:
             seeds = _seeds(
-                camera, blobs, origins, directions, moving, soft if ball is not None else None, blob_method, min_blob_area, ball, rows, still
+                camera,
+                blobs,
+                origins,
+                directions,
+                moving,
+                soft if ball is not None else None,
+                blob_method,
+                min_blob_area,
+                ball,
+                rows,
+                still,
             )
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still)
 

@@ -108,7 +108,9 @@ def test_the_end_of_a_still_rod_of_the_balls_colour_scores_the_floor():
     velocity = np.array([0.12, 0.0, 0.0])
     masks = _streak_masks(rig, BALL, velocity)
     end = BALL + velocity  # a ball at rest at the rod's end
-    still = tuple(CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks))
+    still = tuple(
+        CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks)
+    )
     assert shape(end[None], evidence(rig, masks), None)[0] > 0.2  # without motion: the rod's end looks like a ball
     assert shape(end[None], still, None)[0] <= (1 / 25) ** 2 * 1.0001
     assert shape(BALL[None], _moving(rig, masks), None)[0] > 0.3
@@ -127,7 +129,9 @@ def test_a_ball_with_thin_still_slivers_on_it_scores_as_a_ball():
         u, v = (int(round(x)) for x in cam.project(BALL[None])[0][0])
         m[v - 5 : v - 2, u - 20 : u + 20] = 0  # two gaps cut a sliver 5 pixels high out of the disc's middle
         m[v + 3 : v + 6, u - 20 : u + 20] = 0
-    still = tuple(CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks))
+    still = tuple(
+        CameraEvidence.from_mask(c, m, foreground=np.zeros((c.height // 2, c.width // 2), np.uint8)) for c, m in zip(rig.cameras, masks)
+    )
     assert any(v.still is not None and v.still.any() for v in still)  # the sliver is a still streak
     assert shape(BALL[None], still, None)[0] > 0.3
 
