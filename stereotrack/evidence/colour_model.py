@@ -160,9 +160,8 @@ class ColourModel:
         on_ball, rest = hs_histograms(hsv, LEARN_STEP, in_range, discs)
         if self.spread:
             moves = self.moving > MOVED * self.background if self.moving is not None and self.background is not None else False
-            on_ball[(self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves] = (
-                0  # a moving thing's colours (SPREAD), not a wall's or a prop's
-            )
+            thing = (self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves  # SPREAD: not a wall's, nor a still prop's
+            on_ball[thing] = 0
         if on_ball.any():
             self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
             self.prior *= 1 - self.rate
