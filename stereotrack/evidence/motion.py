@@ -60,6 +60,8 @@ def structure(image: np.ndarray, u: float, v: float, r: float) -> float:
         return 0.0
     ys, xs = np.mgrid[y0:y1, x0:x1]
     disc = np.hypot(xs - u, ys - v) <= 1.3 * r + 0.5
+    if not disc.any():  # a disc just off the image's edge: nothing of it shows
+        return 0.0
     gx, gy = _sobel(image[y0:y1, x0:x1].astype(np.float32).mean(axis=2))
     return float(np.hypot(gx[disc], gy[disc]).mean())
 

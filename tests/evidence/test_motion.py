@@ -3,11 +3,13 @@ ball the tracks hold stays foreground when it comes to rest."""
 
 from __future__ import annotations
 
+import warnings
+
 import cv2
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
-from stereotrack.evidence.motion import BackgroundModel, halved, shading, still_only
+from stereotrack.evidence.motion import STRUCTURE_MIN, BackgroundModel, halved, shading, still_only, structure
 from stereotrack.results import TrackedBalls
 from stereotrack.tracks.manager import SETTLED_FRAMES
 
@@ -328,3 +330,14 @@ def test_a_white_ball_passing_in_front_of_a_tracked_one_is_not_learnt_as_the_roo
         bg.update(room(front=True), both)
     fg = bg.update(room(), both)  # and goes
     assert fg[centre[1] // 2 - 8 : centre[1] // 2 + 9, centre[0] // 2 - 8 : centre[0] // 2 + 9].sum() == 0
+
+
+def test_a_disc_just_off_the_images_edge_shows_nothing_and_warns_nothing():
+    """A track's disc whose centre lies just outside the image (a ball leaving the view) holds no pixel of it: it shows
+    no structure (0), and no warning of an empty mean reaches the user's terminal."""
+    rng = np.random.default_rng(4)
+    image = rng.integers(0, 255, (60, 80, 3), dtype=np.uint8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert structure(image, 80.9, 30.0, 1.0) == 0.0
+        assert structure(image, 40.0, 30.0, 4.0) > STRUCTURE_MIN  # noise is all gradient
