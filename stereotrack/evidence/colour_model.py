@@ -110,7 +110,6 @@ class ColourModel:
     prior: float = 1.0  # the share of the ball's histogram that is still its first one (the range's box, or a file's)
     spread: float = 0.0  # a colour the room holds this many times as often as the balls' cores is not taught (0: every one is)
     moving: np.ndarray | None = None  # H_BINS x S_BINS, with ``spread``: the share of the view the room's moving pixels of each colour are
-    things: np.ndarray | None = None  # H_BINS x S_BINS uint8, 1: a colour of things of the room that move (MOVED); set by ``table``
 
     @classmethod
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
@@ -125,15 +124,20 @@ class ColourModel:
 
     def table(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) x 255 per hue-saturation bin (H_BINS x S_BINS uint8): what a pixel of that colour
-        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet. With ``spread`` and what
-        moved learnt, ``things`` is set from the same state."""
+        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet."""
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         odds = 1.0 + (self.odds - 1.0) * (1.0 - self.prior)  # the learnt share takes the odds
         ratio = self.ball / np.maximum(self.ball + odds * self.background, 1e-12)
-        if self.spread and self.moving is not None:
-            self.things = ((self.moving > MOVED * self.background) & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
         return np.clip(np.rint(255.0 * ratio), 0, 255).astype(np.uint8)
+
+    def moving_things(self) -> np.ndarray | None:
+        """The colours of things of the room that move, as learnt so far (H_BINS x S_BINS uint8, 1: more than MOVED of
+        the room's pixels of it move, over THING and under WALL of the view): what evidence_maps takes a hand's colour
+        for. None without ``spread`` (a ball of every hue) or before anything was learnt to move."""
+        if not self.spread or self.moving is None or self.background is None:
+            return None
+        return ((self.moving > MOVED * self.background) & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
 
     def probability(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) per pixel, 0..255 (uint8): the table read back per pixel. (The tracker reads the

@@ -113,7 +113,7 @@ class CameraEvidence:
         the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
         in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move;
-        with ``things`` (colour_model.ColourModel.things: the colours of things of the room in range, a hand's), a
+        with ``things`` (colour_model.ColourModel.moving_things: the colours of things of the room in range, a hand's), a
         pixel of such a colour less likely the ball's than the room's moves only where it replaced a colour of
         the range (a ball before a wall of its hue), not one out of it: a skin-coloured hand before a wall is no
         ball (hands tune seed 7: the moving hands were kept as balls whatever the model said).

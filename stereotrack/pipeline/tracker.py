@@ -186,6 +186,7 @@ class Tracker:
         foreground = self.backgrounds[j].update(small, balls, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
         shaded = self._shaded(j, small_halved, foreground)
+        colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}
         views = {
             t.name: CameraEvidence.from_mask(
                 cam,
@@ -195,12 +196,12 @@ class Tracker:
                 max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
                 shaded[t.name] if t.name in shaded else foreground,
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                self._colour_table(t, j, cm, confirmed, foreground),
+                colour[t.name][0],
                 cm.hsv,
                 self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 *self.moving_ranges[t.name],
                 self._faint(t, j, small_halved),
-                self.colour_models[t.name][j].things if self.colour_models else None,
+                colour[t.name][1],
             )
             for t in self.config.targets
         }
@@ -228,18 +229,19 @@ class Tracker:
                 out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
         return out
 
-    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls, foreground: np.ndarray | None = None) -> np.ndarray | None:
-        """p(ball | colour) per colour bin for ``target`` in camera j (None without colour models); then the
-        model learns this frame, the ball's colours under the confirmed tracks of the target."""
+    def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls, foreground: np.ndarray | None = None) -> tuple:
+        """(p(ball | colour) per colour bin, the colours of moving things) for ``target`` in camera j, both as learnt
+        before this frame (None, None without colour models); then the model learns this frame, the ball's colours
+        under the confirmed tracks of the target."""
         if self.colour_models is None:
-            return None
+            return None, None
         model = self.colour_models[target.name][j]
-        table = model.table(cm.hsv)
+        table, things = model.table(cm.hsv), model.moving_things()
         cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]), foreground)
-        return table
+        return table, things
 
 
 SHADING_NEAR = 0.5  # metres: the nearest a white ball's shading map expects it (its holes are filled up to its lit centre there)

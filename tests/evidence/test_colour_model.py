@@ -240,9 +240,11 @@ def test_the_colours_of_moving_things_of_the_room_are_things_not_a_still_props_o
     for _ in range(10):
         model.table(hsv)
         model.learn(hsv, target_mask(hsv, orange), np.array([[400.0, 150.0]]), np.array([18.0]), foreground)
-    model.table(hsv)
+    things = model.moving_things()
     bin_of = lambda c: (c[0] // 4, c[1] // 8)  # noqa: E731
-    assert model.things[bin_of(skin)] == 1
-    assert model.things[bin_of(prop)] == 0 and model.things[bin_of(ball)] == 0 and model.things[bin_of((12, 180))] == 0
-    assert model.things[bin_of(blend)] == 0  # rarer than THING
-    assert ColourModel.for_target(Target("white", (0, 0, 150), (179, 50, 255))).things is None  # a white ball: none
+    assert things[bin_of(skin)] == 1
+    assert things[bin_of(prop)] == 0 and things[bin_of(ball)] == 0 and things[bin_of((12, 180))] == 0
+    assert things[bin_of(blend)] == 0  # rarer than THING
+    white = ColourModel.for_target(Target("white", (0, 0, 150), (179, 50, 255)))
+    white.learn(hsv, np.ones(hsv.shape[:2], np.uint8), foreground=foreground)
+    assert white.moving_things() is None  # a white ball: none
