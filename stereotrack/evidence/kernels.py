@@ -216,16 +216,25 @@ def _in_bounds(h, s, v, bounds):
 
 
 @kernel
-def hs_histograms(hsv, step, in_range, discs):
+def hs_histograms(hsv, step, in_range, discs, foreground, off_ball):
     """Hue-saturation histograms (counts, float32) of every ``step``-th pixel in each direction: the pixels
-    inside ``discs`` (a mask on that subsampled grid; empty: none) that are in range (the ball's colours), and
-    the pixels outside the discs (the background's). What cv2.calcHist gives on the subsampled copies."""
+    inside ``discs`` (a mask on that subsampled grid; empty: none) that are in range (the ball's colours), the
+    pixels outside the discs (the background's), and, with a ``foreground`` (0/1 on any grid the image's size
+    divides, read as colour_model.ColourModel.learn reads it: row y * fh // h, column x * fw // w; empty: none,
+    the third histogram is all zeros), the pixels that move outside ``off_ball`` (a mask on the subsampled grid;
+    empty: none). What cv2.calcHist gives on the subsampled copies, in one pass: the moving pixels' histogram
+    was a strided copy of the HSV, a fancy-indexed copy of the foreground and calcHist (a third of learning)."""
     h, w = hsv.shape[0], hsv.shape[1]
     ball = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
     rest = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
+    moved = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
     use_discs = discs.shape[0] > 0
+    use_fg = foreground.shape[0] > 0
+    use_off = off_ball.shape[0] > 0
+    fh, fw = foreground.shape[0], foreground.shape[1]
     for j in range(0, (h + step - 1) // step):
         y = j * step
+        fy = min(y * fh // h, fh - 1)
         for i in range(0, (w + step - 1) // step):
             x = i * step
             hb = hsv[y, x, 0] // HUE_STEP
@@ -235,7 +244,9 @@ def hs_histograms(hsv, step, in_range, discs):
                     ball[hb, sb] += 1.0
             else:
                 rest[hb, sb] += 1.0
-    return ball, rest
+            if use_fg and foreground[fy, min(x * fw // w, fw - 1)] and not (use_off and off_ball[j, i]):
+                moved[hb, sb] += 1.0
+    return ball, rest, moved
 
 
 @kernel

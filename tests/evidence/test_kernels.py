@@ -118,14 +118,42 @@ def test_the_colour_histograms_are_what_calchist_counts_on_the_subsampled_grid()
     small = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
     discs = np.zeros(small.shape[:2], np.uint8)
     cv2.circle(discs, (20, 15), 9, 255, -1)
-    ball, rest = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs)
+    none = np.zeros((0, 0), np.uint8)
+    ball, rest, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs, none, none)
     ranges = [0, 180, 0, 256]
     on_ball = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[::LEARN_STEP, ::LEARN_STEP]))
     assert ball.sum() > 50
     assert np.array_equal(ball, cv2.calcHist([small], [0, 1], on_ball, [H_BINS, S_BINS], ranges))
     assert np.array_equal(rest, cv2.calcHist([small], [0, 1], cv2.bitwise_not(discs), [H_BINS, S_BINS], ranges))
-    _, everything = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8))
+    assert not moved.any()  # no foreground: no moving pixel
+    _, everything, _ = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, none, none, none)
     assert np.array_equal(everything, cv2.calcHist([small], [0, 1], None, [H_BINS, S_BINS], ranges))
+
+
+def test_the_moving_colours_histogram_is_what_calchist_counts_on_the_foreground_read_at_the_grid():
+    """The third histogram: the subsampled pixels whose foreground cell (nearest, on a grid the image's size divides)
+    is set and that are off the ``off_ball`` discs: what ColourModel.learn counted with a strided copy and calcHist."""
+    from stereotrack.evidence.colour_model import H_BINS, LEARN_STEP, S_BINS
+
+    rng = np.random.default_rng(14)
+    hsv = _scene(rng)
+    h, w = hsv.shape[:2]
+    fh, fw = h // 2, w // 2  # the background's grid (an odd last row and column left out)
+    in_range = (rng.random((h, w)) < 0.5).astype(np.uint8)
+    small = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
+    foreground = (rng.random((fh, fw)) < 0.3).astype(np.uint8)
+    off_ball = np.zeros(small.shape[:2], np.uint8)
+    cv2.circle(off_ball, (12, 9), 6, 255, -1)
+    rows = np.minimum(np.arange(0, h, LEARN_STEP) * fh // h, fh - 1)
+    cols = np.minimum(np.arange(0, w, LEARN_STEP) * fw // w, fw - 1)
+    for off in (off_ball, np.zeros((0, 0), np.uint8)):
+        sampled = foreground[np.ix_(rows, cols)]
+        if off.shape[0]:
+            sampled = sampled & (off == 0)
+        expected = cv2.calcHist([small], [0, 1], sampled.astype(np.uint8), [H_BINS, S_BINS], [0, 180, 0, 256])
+        _, _, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8), foreground, off)
+        assert moved.sum() > 100
+        assert np.array_equal(moved, expected)
 
 
 def test_the_background_step_is_what_opencv_gives_step_by_step():
