@@ -200,6 +200,32 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     assert calm_moving == np.count_nonzero((change > 30) & steady)
 
 
+def test_the_background_steps_faint_marks_and_calm_counts_are_numpys():
+    """The per-cell part of the background step against numpy: the faint map (1 where the change from the background
+    exceeds the faint threshold, 2 where the change from the frame before does too), the calm counts (capped at 255,
+    0 where the cell stepped), and the moving cells calm for absorb_frames or more."""
+    rng = np.random.default_rng(17)
+    shape = (50, 70)
+    previous = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    small = np.clip(previous.astype(int) + rng.integers(-12, 13, previous.shape), 0, 255).astype(np.uint8)
+    background = np.clip(previous.astype(np.float32) + rng.normal(0, 12, previous.shape).astype(np.float32), 0, 255)
+    calm = rng.choice(np.array([0, 3, 4, 5, 6, 254, 255], np.uint8), shape)
+    before, cells, counts = previous.astype(np.int32), background.copy(), calm.copy()
+    change = np.abs(small.astype(np.int32) - (cells + np.float32(0.5)).astype(np.int32)).sum(axis=2)
+    stepped = np.abs(small.astype(np.int32) - before).sum(axis=2)
+    moving, behind, faint = np.empty(shape, np.uint8), np.empty((*shape, 3), np.uint8), np.empty(shape, np.uint8)
+    learn = np.ones(shape, np.uint8)
+    calm_moving = evidence_kernels.background_step(
+        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5, 12.0, faint
+    )
+    assert np.array_equal(moving, (change > 30).astype(np.uint8))
+    assert np.array_equal(faint, np.where(change > 12, np.where(stepped > 12, 2, 1), 0))
+    assert {0, 1, 2} <= set(np.unique(faint).tolist())
+    want_calm = np.where(stepped <= 30, np.minimum(counts.astype(int) + 1, 255), 0)
+    assert np.array_equal(calm, want_calm) and (want_calm == 255).any() and (want_calm == 0).any()
+    assert calm_moving == np.count_nonzero((change > 30) & (want_calm >= 5)) > 0
+
+
 def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
     """A ghost: the background holds a ball (p near 1) where a wall of its hue (p near 0.5) is now. The wall
     differs from the background, but it is less the ball's colour than what it replaced: it is not moving
