@@ -16,9 +16,11 @@ HUE_STEP, SAT_STEP = 4, 8
 
 @kernel
 def subsampled(mask, scale, rows):
-    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), and
-    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty).
-    Rows of the mask that ``rows`` (one per mask row; empty: every row) marks 0 are empty: they are not read."""
+    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), a
+    label image of its size (int32) zeroed outside the box (x0, y0, x1, y1, end exclusive) of its set pixels, and
+    that box, its start rounded down to even (all zeros: empty, the label image all zero): the caller labels inside
+    the box (blobs._components). Rows of the mask that ``rows`` (one per mask row; empty: every row) marks 0 are
+    empty: they are not read."""
     h, w = mask.shape
     out = np.empty(((h + scale - 1) // scale, (w + scale - 1) // scale), mask.dtype)
     x0, y0, x1, y1 = out.shape[1], out.shape[0], 0, 0
@@ -38,9 +40,17 @@ def subsampled(mask, scale, rows):
         if last >= 0:
             x0, x1 = min(x0, first), max(x1, last + 1)
             y0, y1 = min(y0, y), y + 1
+    labels = np.empty(out.shape, np.int32)
     if x1 == 0:
-        return out, 0, 0, 0, 0
-    return out, x0 - x0 % 2, y0 - y0 % 2, x1, y1
+        labels[:] = 0
+        return out, labels, 0, 0, 0, 0
+    x0, y0 = x0 - x0 % 2, y0 - y0 % 2
+    labels[:y0] = 0
+    labels[y1:] = 0
+    for y in range(y0, y1):  # the box itself is the labeller's to write
+        labels[y, :x0] = 0
+        labels[y, x1:] = 0
+    return out, labels, x0, y0, x1, y1
 
 
 @kernel
@@ -115,7 +125,7 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
-def component_measures(mask, labels, n, x0, y0, scale, min_area):
+def component_measures(mask, labels, n, x0, y0, scale, min_area, width, height, elongation, fill):
     """Everything blobs._components measures of the components 1..n-1 of ``labels`` (a label image of the box at
     (``x0``, ``y0``) of a ``scale``-times subsampled copy of the 0/1 ``mask``), in one call: which are blobs (their
     subsampled area x scale^2 at least ``min_area``), label -> blob index (-1: background or a speck), and per blob
@@ -123,7 +133,9 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area):
     of its set pixels, central second moments, the semi-axes of the filled ellipse with those moments (major first; a
     filled ellipse of semi-axes a, b has variances a^2 / 4 and b^2 / 4 along them) and half its larger side. What
     component_boxes, mask_moments and the numpy arithmetic between them gave, without a dozen small array calls per
-    blob finder (three a frame per camera and target)."""
+    blob finder (three a frame per camera and target). Last, per blob, whether it could be a streak: shaped like one
+    (blobs.streaks with ``elongation`` and ``fill`` = STREAK_FILL x pi, in its order of operations) and its box away from
+    the edges of the ``width`` x ``height`` label grid (blobs._components tells the uneven ones apart)."""
     area, box = component_boxes(labels, n)
     label_blob = np.full(n, -1, np.int64)
     m = 0
@@ -146,7 +158,12 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area):
         axes[b, 0] = 2.0 * np.sqrt(max(mean + spread, 0.0))
         axes[b, 1] = 2.0 * np.sqrt(max(mean - spread, 0.0))
         radii[b] = 0.5 * max(size[b, 0], size[b, 1])
-    return label_blob, boxes, count, centre, size, second, axes, radii
+    swept = np.zeros(m, np.bool_)
+    for b in range(m):
+        inside = boxes[b, 0] > 0 and boxes[b, 1] > 0 and boxes[b, 2] < width and boxes[b, 3] < height
+        semi_minor = axes[b, 1] if axes[b, 1] > 0.5 else 0.5
+        swept[b] = inside and axes[b, 0] >= elongation * semi_minor and count[b] >= fill * axes[b, 0] * semi_minor
+    return label_blob, boxes, count, centre, size, second, axes, radii, swept
 
 
 @kernel
