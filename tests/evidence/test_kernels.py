@@ -429,3 +429,20 @@ def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     out_of_range = cv2.countNonZero(cv2.subtract(moving, in_range))
     assert 0 < out_of_range < cv2.countNonZero(moving)
     assert pale == out_of_range
+
+
+def test_the_picked_and_halved_frames_are_opencvs_nearest_pick_and_area_halving():
+    """kernels.picked_and_halved: every scale-th pixel (gather.every_nth, OpenCV's INTER_NEAREST by a whole factor) and
+    that image halved (motion.halved, OpenCV's INTER_AREA: rounded half up), odd sizes' last row and column left out."""
+    from stereotrack.evidence.gather import every_nth, every_nth_and_halved
+    from stereotrack.evidence.motion import halved
+
+    rng = np.random.default_rng(18)
+    for (h, w), scale in (((720, 1280), 2), ((722, 1282), 2), ((726, 1286), 2), ((121, 163), 2), ((90, 120), 3)):
+        image = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        small, half = evidence_kernels.picked_and_halved(image, scale)
+        assert np.array_equal(small, every_nth(image, scale)), (h, w)
+        assert np.array_equal(half, halved(every_nth(image, scale))), (h, w)
+    odd_view = image[:, ::-1]  # not contiguous: OpenCV's two passes
+    small, half = every_nth_and_halved(odd_view, 2)
+    assert np.array_equal(small, every_nth(odd_view, 2)) and np.array_equal(half, halved(small))
