@@ -45,27 +45,25 @@ class Blobs:
 def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarray | None = None) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
-    small, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)
+    small, labels, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)
     # Labels only: OpenCV's per-component statistics cost several times the labelling itself. Labelled inside the
     # box of the set pixels (most of a mask is empty), from an even corner: OpenCV labels 2 x 2 blocks in raster
     # order, so the labels are those of the whole mask. OpenCV writes them into the box of the label image, whose
-    # margins alone are zeroed (the box was written twice, zeroed then copied: six label images a frame).
-    labels = np.empty(small.shape, np.int32)
-    labels[:y0], labels[y1:], labels[y0:y1, :x0], labels[y0:y1, x1:] = 0, 0, 0, 0
+    # margins alone ``subsampled`` zeroed (the box was written twice, zeroed then copied: six label images a frame).
     n = 1
     if x1:
         box = labels[y0:y1, x0:x1]
         n, written = cv2.connectedComponents(small[y0:y1, x0:x1], labels=box, connectivity=8, ltype=cv2.CV_32S)
         if not np.shares_memory(written, labels):  # an OpenCV that made an array of its own
             box[:] = written
-    # Which components are blobs, and each blob measured at full resolution (its moments, axes, size), in one call
-    label_blob, boxes, areas, centres, size, second, axes, radii = component_measures(
-        mask, labels[y0:y1, x0:x1], n, x0, y0, scale, min_area
+    # Which components are blobs, each blob measured at full resolution (its moments, axes, size), and which are
+    # shaped like streaks away from the edge (``streaks``), in one call
+    label_blob, boxes, areas, centres, size, second, axes, radii, swept = component_measures(
+        mask, labels[y0:y1, x0:x1], n, x0, y0, scale, min_area, small.shape[1], small.shape[0], STREAK_ELONGATION, STREAK_FILL * np.pi
     )
-    inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
     major = np.column_stack([np.cos(angle := 0.5 * np.arctan2(2.0 * second[:, 2], second[:, 0] - second[:, 1])), np.sin(angle)])
-    swept = streaks(areas, axes) & inside
-    swept[swept] = ~_uneven(mask, centres[swept], major[swept], axes[swept])
+    if swept.any():  # (most masks hold none)
+        swept[swept] = ~_uneven(mask, centres[swept], major[swept], axes[swept])
     widths = np.where(swept, axes[:, 1], radii)  # a streak is as wide as its ball, and longer
     return Blobs(centres, areas, radii, labels, label_blob, scale, boxes, size, axes, major.reshape(-1, 2), widths, swept)
 

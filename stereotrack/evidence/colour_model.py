@@ -157,11 +157,14 @@ class ColourModel:
         background's from every other pixel; with ``spread`` and the ``foreground`` (0/1, any grid the image's size
         divides), the colours of what moved off the balls (``moving``)."""
         h, w = hsv.shape[:2]
-        discs = _NO_DISCS
+        discs = off_ball = _NO_DISCS
         if centres_uv is not None and len(centres_uv):
             grid = (-(-h // LEARN_STEP), -(-w // LEARN_STEP))  # the subsampled grid the histograms count on
             discs = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP)
-        on_ball, rest = hs_histograms(hsv, LEARN_STEP, in_range, discs)
+        learn_moving = bool(self.spread) and foreground is not None  # MOVED
+        if learn_moving and discs.shape[0]:
+            off_ball = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP, OFF_BALL)
+        on_ball, rest, moved = hs_histograms(hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball)
         if self.spread:
             moves = self.moving > MOVED * self.background if self.moving is not None and self.background is not None else False
             thing = (self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves  # SPREAD: not a wall's, nor a still prop's
@@ -171,15 +174,8 @@ class ColourModel:
             self.prior *= 1 - self.rate
         background = _normalised(rest)
         self.background = background if self.background is None else (1 - self.rate) * self.background + self.rate * background
-        if self.spread and foreground is not None:  # MOVED
-            fh, fw = foreground.shape
-            rows = np.minimum(np.arange(0, h, LEARN_STEP) * fh // h, fh - 1)
-            cols = np.minimum(np.arange(0, w, LEARN_STEP) * fw // w, fw - 1)
-            moved = foreground[np.ix_(rows, cols)]
-            if discs.shape[0]:
-                moved = moved & (disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP, OFF_BALL) == 0)
-            sampled = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
-            moving = hs_histogram(sampled, moved.astype(np.uint8)) / max(float(rest.sum()), 1.0)
+        if learn_moving:
+            moving = moved / max(float(rest.sum()), 1.0)
             self.moving = moving if self.moving is None else (1 - self.rate) * self.moving + self.rate * moving
 
     # ----------------------------------------------------------------- file

@@ -18,7 +18,8 @@ from ..camera import Camera
 from ..config import Target
 from .blobs import Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, faint_pixels, pale_cells
+from .kernels import evidence_maps, faint_pixels, pale_cells, picked_and_halved
+from .motion import halved
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,6 +205,15 @@ def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
     h, w = image.shape[:2]
     # OpenCV's nearest-neighbour resize by a whole factor picks exactly these pixels, several times faster than numpy's strided copy.
     return cv2.resize(image[: h - h % scale, : w - w % scale], (w // scale, h // scale), interpolation=cv2.INTER_NEAREST)
+
+
+def every_nth_and_halved(image: np.ndarray, scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """``every_nth(image, scale)`` and that image on the background's grid (motion.halved), in one compiled pass over
+    a BGR frame picked on a coarser grid (kernels.picked_and_halved: the frame is read once, not the small image again)."""
+    if scale > 1 and image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.flags.c_contiguous:
+        return picked_and_halved(image, scale)
+    small = every_nth(image, scale)
+    return small, halved(small)
 
 
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"

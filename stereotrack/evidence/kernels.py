@@ -16,9 +16,11 @@ HUE_STEP, SAT_STEP = 4, 8
 
 @kernel
 def subsampled(mask, scale, rows):
-    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), and
-    the box (x0, y0, x1, y1, end exclusive) of its set pixels, its start rounded down to even (all zeros: empty).
-    Rows of the mask that ``rows`` (one per mask row; empty: every row) marks 0 are empty: they are not read."""
+    """mask[::scale, ::scale] as a new contiguous array (a plain loop: twice as fast as numpy's strided copy), a
+    label image of its size (int32) zeroed outside the box (x0, y0, x1, y1, end exclusive) of its set pixels, and
+    that box, its start rounded down to even (all zeros: empty, the label image all zero): the caller labels inside
+    the box (blobs._components). Rows of the mask that ``rows`` (one per mask row; empty: every row) marks 0 are
+    empty: they are not read."""
     h, w = mask.shape
     out = np.empty(((h + scale - 1) // scale, (w + scale - 1) // scale), mask.dtype)
     x0, y0, x1, y1 = out.shape[1], out.shape[0], 0, 0
@@ -38,9 +40,45 @@ def subsampled(mask, scale, rows):
         if last >= 0:
             x0, x1 = min(x0, first), max(x1, last + 1)
             y0, y1 = min(y0, y), y + 1
+    labels = np.empty(out.shape, np.int32)
     if x1 == 0:
-        return out, 0, 0, 0, 0
-    return out, x0 - x0 % 2, y0 - y0 % 2, x1, y1
+        labels[:] = 0
+        return out, labels, 0, 0, 0, 0
+    x0, y0 = x0 - x0 % 2, y0 - y0 % 2
+    labels[:y0] = 0
+    labels[y1:] = 0
+    for y in range(y0, y1):  # the box itself is the labeller's to write
+        labels[y, :x0] = 0
+        labels[y, x1:] = 0
+    return out, labels, x0, y0, x1, y1
+
+
+@kernel
+def picked_and_halved(image, scale):
+    """Every ``scale``-th pixel of a BGR image in each direction (gather.every_nth: pixel j is the image's pixel
+    scale j) and that image on the background's grid (motion.halved: each 2 x 2 block's mean, rounded half up, as
+    OpenCV's INTER_AREA halves uint8; an odd last row or column left out), in one pass over the image: each halved
+    row is made from the two picked rows just written. A frame 1280 wide costs a third less than OpenCV's
+    nearest-neighbour pick and then its area halving (the tracker's evidence grid, pipeline/tracker.py)."""
+    h, w = image.shape[0] // scale, image.shape[1] // scale
+    small = np.empty((h, w, 3), np.uint8)
+    hh, hw = h // 2, w // 2
+    half = np.empty((hh, hw, 3), np.uint8)
+    for y in range(h):
+        src, row = image[scale * y], small[y]
+        for x in range(w):
+            row[x, 0] = src[scale * x, 0]
+            row[x, 1] = src[scale * x, 1]
+            row[x, 2] = src[scale * x, 2]
+        if y % 2 == 1 and y // 2 < hh:
+            above, out = small[y - 1], half[y // 2]
+            for x in range(hw):
+                for c in range(3):
+                    total = (
+                        np.int32(above[2 * x, c]) + np.int32(above[2 * x + 1, c]) + np.int32(row[2 * x, c]) + np.int32(row[2 * x + 1, c])
+                    )
+                    out[x, c] = np.uint8((total + 2) >> 2)
+    return small, half
 
 
 @kernel
@@ -115,7 +153,7 @@ def mask_moments(mask, boxes, scale):
 
 
 @kernel
-def component_measures(mask, labels, n, x0, y0, scale, min_area):
+def component_measures(mask, labels, n, x0, y0, scale, min_area, width, height, elongation, fill):
     """Everything blobs._components measures of the components 1..n-1 of ``labels`` (a label image of the box at
     (``x0``, ``y0``) of a ``scale``-times subsampled copy of the 0/1 ``mask``), in one call: which are blobs (their
     subsampled area x scale^2 at least ``min_area``), label -> blob index (-1: background or a speck), and per blob
@@ -123,7 +161,9 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area):
     of its set pixels, central second moments, the semi-axes of the filled ellipse with those moments (major first; a
     filled ellipse of semi-axes a, b has variances a^2 / 4 and b^2 / 4 along them) and half its larger side. What
     component_boxes, mask_moments and the numpy arithmetic between them gave, without a dozen small array calls per
-    blob finder (three a frame per camera and target)."""
+    blob finder (three a frame per camera and target). Last, per blob, whether it could be a streak: shaped like one
+    (blobs.streaks with ``elongation`` and ``fill`` = STREAK_FILL x pi, in its order of operations) and its box away from
+    the edges of the ``width`` x ``height`` label grid (blobs._components tells the uneven ones apart)."""
     area, box = component_boxes(labels, n)
     label_blob = np.full(n, -1, np.int64)
     m = 0
@@ -146,7 +186,12 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area):
         axes[b, 0] = 2.0 * np.sqrt(max(mean + spread, 0.0))
         axes[b, 1] = 2.0 * np.sqrt(max(mean - spread, 0.0))
         radii[b] = 0.5 * max(size[b, 0], size[b, 1])
-    return label_blob, boxes, count, centre, size, second, axes, radii
+    swept = np.zeros(m, np.bool_)
+    for b in range(m):
+        inside = boxes[b, 0] > 0 and boxes[b, 1] > 0 and boxes[b, 2] < width and boxes[b, 3] < height
+        semi_minor = axes[b, 1] if axes[b, 1] > 0.5 else 0.5
+        swept[b] = inside and axes[b, 0] >= elongation * semi_minor and count[b] >= fill * axes[b, 0] * semi_minor
+    return label_blob, boxes, count, centre, size, second, axes, radii, swept
 
 
 @kernel
@@ -216,16 +261,25 @@ def _in_bounds(h, s, v, bounds):
 
 
 @kernel
-def hs_histograms(hsv, step, in_range, discs):
+def hs_histograms(hsv, step, in_range, discs, foreground, off_ball):
     """Hue-saturation histograms (counts, float32) of every ``step``-th pixel in each direction: the pixels
-    inside ``discs`` (a mask on that subsampled grid; empty: none) that are in range (the ball's colours), and
-    the pixels outside the discs (the background's). What cv2.calcHist gives on the subsampled copies."""
+    inside ``discs`` (a mask on that subsampled grid; empty: none) that are in range (the ball's colours), the
+    pixels outside the discs (the background's), and, with a ``foreground`` (0/1 on any grid the image's size
+    divides, read as colour_model.ColourModel.learn reads it: row y * fh // h, column x * fw // w; empty: none,
+    the third histogram is all zeros), the pixels that move outside ``off_ball`` (a mask on the subsampled grid;
+    empty: none). What cv2.calcHist gives on the subsampled copies, in one pass: the moving pixels' histogram
+    was a strided copy of the HSV, a fancy-indexed copy of the foreground and calcHist (a third of learning)."""
     h, w = hsv.shape[0], hsv.shape[1]
     ball = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
     rest = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
+    moved = np.zeros((180 // HUE_STEP, 256 // SAT_STEP), np.float32)
     use_discs = discs.shape[0] > 0
+    use_fg = foreground.shape[0] > 0
+    use_off = off_ball.shape[0] > 0
+    fh, fw = foreground.shape[0], foreground.shape[1]
     for j in range(0, (h + step - 1) // step):
         y = j * step
+        fy = min(y * fh // h, fh - 1)
         for i in range(0, (w + step - 1) // step):
             x = i * step
             hb = hsv[y, x, 0] // HUE_STEP
@@ -235,7 +289,9 @@ def hs_histograms(hsv, step, in_range, discs):
                     ball[hb, sb] += 1.0
             else:
                 rest[hb, sb] += 1.0
-    return ball, rest
+            if use_fg and foreground[fy, min(x * fw // w, fw - 1)] and not (use_off and off_ball[j, i]):
+                moved[hb, sb] += 1.0
+    return ball, rest, moved
 
 
 @kernel
@@ -285,7 +341,8 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
     streak is mostly somewhere new each frame, a ghost never: gather.py). Then the cell learns, b += rate (cell - b),
     where ``learn`` is set. Returns how many moving cells have been calm for ``absorb_frames`` frames or more.
     Each row runs channel by channel over its 3 W values first (a loop the compiler vectorises: no branch in it;
-    a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell."""
+    a gain of 1 and a learn factor of 0 or 1 give exactly what skipping them would), then cell by cell (no branch
+    either: the marks and counts are products of 0/1 tests)."""
     h, w = background.shape[0], background.shape[1]
     n = 3 * w
     a = np.float32(rate)
@@ -297,6 +354,7 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
     step = np.empty(n, np.int32)
     calm_moving = 0
     use_faint = faint.shape[0] > 0
+    no_marks = np.empty(0, np.uint8)
     for j in range(h):
         blocks, cells, before, was = small[j].reshape(n), background[j].reshape(n), previous[j].reshape(n), behind[j].reshape(n)
         for i in range(w):
@@ -311,15 +369,17 @@ def background_step(small, background, previous, calm, learn, gain, rate, thresh
             was[k] = np.uint8(min(np.rint(cell), np.float32(255.0)))  # rounded half to even, as OpenCV rounds
             cells[k] = cell + a * (np.float32(block) - cell) * learning[k]
         count, out = calm[j], moving[j]
-        for i in range(w):
+        marks = faint[j] if use_faint else no_marks
+        for i in range(w):  # no branch but the loop-invariant one: a third faster than choosing per cell
             total = change[3 * i] + change[3 * i + 1] + change[3 * i + 2]
-            out[i] = 1 if total > threshold else 0
+            stepped = step[3 * i] + step[3 * i + 1] + step[3 * i + 2]
+            moves = np.uint8(total > threshold)
+            out[i] = moves
             if use_faint:  # 2 where it changed from the frame before too: a ghost (the wall where the background holds a ball) is calm
-                stepped = step[3 * i] + step[3 * i + 1] + step[3 * i + 2]
-                faint[j, i] = 0 if total <= faint_threshold else (2 if stepped > faint_threshold else 1)
-            count[i] = min(count[i] + 1, 255) if step[3 * i] + step[3 * i + 1] + step[3 * i + 2] <= threshold else 0
-            if out[i] and count[i] >= absorb_frames:
-                calm_moving += 1
+                marks[i] = np.uint8(total > faint_threshold) * (np.uint8(1) + np.uint8(stepped > faint_threshold))
+            calm_now = np.uint8(min(np.int32(count[i]) + 1, 255)) * np.uint8(stepped <= threshold)
+            count[i] = calm_now
+            calm_moving += moves & np.uint8(calm_now >= absorb_frames)
     return calm_moving
 
 

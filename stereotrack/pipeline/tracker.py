@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -19,7 +20,7 @@ from ..config import Config, Target
 from ..errors import StereotrackError
 from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
-from ..evidence.gather import CameraEvidence, Faint, every_nth, on_grid
+from ..evidence.gather import CameraEvidence, Faint, every_nth, every_nth_and_halved, on_grid
 from ..evidence.motion import SCALE, BackgroundModel, halved, shading, still_only
 from ..frames import FramePair
 from ..kernels import KERNELS
@@ -96,11 +97,16 @@ class Tracker:
         return [self._colours(j, image) for j, image in enumerate(images)]
 
     def _colours(self, j: int, image: np.ndarray):
-        small = every_nth(image, self.scales[j])
-        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all; the frame on the
-        # background's grid is made here too (no track is needed for it: made ahead with the rest).
+        # The frame on the background's grid is made here too (no track is needed for it: made ahead with the rest),
+        # in the same pass as the evidence grid's when that is coarser than the frame.
+        if self.backgrounds and self.scales[j] > 1:
+            small, small_halved = every_nth_and_halved(image, self.scales[j])
+        else:
+            small = every_nth(image, self.scales[j])
+            small_halved = halved(small) if self.backgrounds else None
+        # The ranges' integral images are made with the other maps (evidence/gather.py), if at all
         masks = camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
-        return small, masks, halved(small) if self.backgrounds else None
+        return small, masks, small_halved
 
     def step(self, pair: FramePair, colours: list | None = None) -> FrameResult:
         """Track one pair; ``colours``: the pair's ``colours(pair.images)``, when it was made ahead."""
@@ -333,6 +339,9 @@ def warm_up() -> None:
                 cv2.rectangle(img, (int(uv[0, 0] - r - 2), int(uv[0, 1] - r - 2)), (int(uv[0, 0]), int(uv[0, 1] + r + 2)), (60, 60, 60), -1)
             images.append(img)
         tracker.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
+        if frame == 0:  # a camera's evidence on a coarser grid than its frames (a wide frame's): picked and halved at once
+            coarse = Tracker(rig, Config(targets=(pink, orange), tracker=replace(tracker.config.tracker, evidence_scale=2)))
+            coarse.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
 
 
 def compiled_kernels() -> dict[str, int]:

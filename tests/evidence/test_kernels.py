@@ -4,6 +4,7 @@ import cv2
 import numpy as np
 
 from stereotrack.evidence import kernels as evidence_kernels
+from stereotrack.evidence.blobs import STREAK_ELONGATION, STREAK_FILL, streaks
 
 
 def test_component_boxes_and_mask_moments_match_opencv():
@@ -32,7 +33,9 @@ def test_component_measures_keep_the_blobs_and_measure_them_as_opencv_does():
     small = np.ascontiguousarray(mask[::2, ::2])
     x0, y0 = 10, 6  # labelled inside a box of the subsampled mask
     n, labels, stats, _ = cv2.connectedComponentsWithStats(small[y0:, x0:], connectivity=8)
-    label_blob, boxes, count, centre, size, second, axes, radii = evidence_kernels.component_measures(mask, labels, n, x0, y0, 2, 24)
+    label_blob, boxes, count, centre, size, second, axes, radii, swept = evidence_kernels.component_measures(
+        mask, labels, n, x0, y0, 2, 24, small.shape[1], small.shape[0], STREAK_ELONGATION, STREAK_FILL * np.pi
+    )
     kept = stats[1:, cv2.CC_STAT_AREA] * 4 >= 24
     assert 3 < kept.sum() < n - 1  # some specks left out
     assert np.array_equal(label_blob, np.r_[-1, np.where(kept, np.cumsum(kept) - 1, -1)])
@@ -44,6 +47,22 @@ def test_component_measures_keep_the_blobs_and_measure_them_as_opencv_does():
         var = np.linalg.eigvalsh([[xx, xy], [xy, yy]])
         assert np.allclose((a * a / 4, b * b / 4), var[::-1], atol=1e-9)
     assert np.array_equal(radii, 0.5 * size.max(axis=1))
+    # shaped like a streak (blobs.streaks) with its box away from the label grid's edges
+    inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
+    assert np.array_equal(swept, streaks(count, axes) & inside)
+
+
+def test_component_measures_tell_the_streaks_away_from_the_edge():
+    lines = np.zeros((100, 120), np.uint8)  # a streak inside, one touching the left edge, a disc
+    cv2.line(lines, (20, 20), (80, 40), 1, 7)
+    cv2.line(lines, (0, 80), (50, 80), 1, 7)
+    cv2.circle(lines, (95, 75), 8, 1, -1)
+    n, labels = cv2.connectedComponents(np.ascontiguousarray(lines[::2, ::2]), connectivity=8)
+    label_blob, *_, swept = evidence_kernels.component_measures(
+        lines, labels, n, 0, 0, 2, 6, 60, 50, STREAK_ELONGATION, STREAK_FILL * np.pi
+    )
+    first = label_blob[labels[15, 25]], label_blob[labels[40, 10]], label_blob[labels[37, 47]]  # the inner streak, the edge one, the disc
+    assert [bool(swept[b]) for b in first] == [True, False, False]
 
 
 def _scene(rng, h=121, w=163):
@@ -118,14 +137,42 @@ def test_the_colour_histograms_are_what_calchist_counts_on_the_subsampled_grid()
     small = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
     discs = np.zeros(small.shape[:2], np.uint8)
     cv2.circle(discs, (20, 15), 9, 255, -1)
-    ball, rest = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs)
+    none = np.zeros((0, 0), np.uint8)
+    ball, rest, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs, none, none)
     ranges = [0, 180, 0, 256]
     on_ball = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[::LEARN_STEP, ::LEARN_STEP]))
     assert ball.sum() > 50
     assert np.array_equal(ball, cv2.calcHist([small], [0, 1], on_ball, [H_BINS, S_BINS], ranges))
     assert np.array_equal(rest, cv2.calcHist([small], [0, 1], cv2.bitwise_not(discs), [H_BINS, S_BINS], ranges))
-    _, everything = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8))
+    assert not moved.any()  # no foreground: no moving pixel
+    _, everything, _ = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, none, none, none)
     assert np.array_equal(everything, cv2.calcHist([small], [0, 1], None, [H_BINS, S_BINS], ranges))
+
+
+def test_the_moving_colours_histogram_is_what_calchist_counts_on_the_foreground_read_at_the_grid():
+    """The third histogram: the subsampled pixels whose foreground cell (nearest, on a grid the image's size divides)
+    is set and that are off the ``off_ball`` discs: what ColourModel.learn counted with a strided copy and calcHist."""
+    from stereotrack.evidence.colour_model import H_BINS, LEARN_STEP, S_BINS
+
+    rng = np.random.default_rng(14)
+    hsv = _scene(rng)
+    h, w = hsv.shape[:2]
+    fh, fw = h // 2, w // 2  # the background's grid (an odd last row and column left out)
+    in_range = (rng.random((h, w)) < 0.5).astype(np.uint8)
+    small = np.ascontiguousarray(hsv[::LEARN_STEP, ::LEARN_STEP])
+    foreground = (rng.random((fh, fw)) < 0.3).astype(np.uint8)
+    off_ball = np.zeros(small.shape[:2], np.uint8)
+    cv2.circle(off_ball, (12, 9), 6, 255, -1)
+    rows = np.minimum(np.arange(0, h, LEARN_STEP) * fh // h, fh - 1)
+    cols = np.minimum(np.arange(0, w, LEARN_STEP) * fw // w, fw - 1)
+    for off in (off_ball, np.zeros((0, 0), np.uint8)):
+        sampled = foreground[np.ix_(rows, cols)]
+        if off.shape[0]:
+            sampled = sampled & (off == 0)
+        expected = cv2.calcHist([small], [0, 1], sampled.astype(np.uint8), [H_BINS, S_BINS], [0, 180, 0, 256])
+        _, _, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8), foreground, off)
+        assert moved.sum() > 100
+        assert np.array_equal(moved, expected)
 
 
 def test_the_background_step_is_what_opencv_gives_step_by_step():
@@ -170,6 +217,32 @@ def test_the_background_step_is_what_opencv_gives_step_by_step():
     assert np.array_equal(moving, (change > 30).astype(np.uint8)) and np.array_equal(background, learnt)
     assert np.array_equal(calm, np.where(steady, np.minimum(counts.astype(int) + 1, 255), 0))
     assert calm_moving == np.count_nonzero((change > 30) & steady)
+
+
+def test_the_background_steps_faint_marks_and_calm_counts_are_numpys():
+    """The per-cell part of the background step against numpy: the faint map (1 where the change from the background
+    exceeds the faint threshold, 2 where the change from the frame before does too), the calm counts (capped at 255,
+    0 where the cell stepped), and the moving cells calm for absorb_frames or more."""
+    rng = np.random.default_rng(17)
+    shape = (50, 70)
+    previous = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    small = np.clip(previous.astype(int) + rng.integers(-12, 13, previous.shape), 0, 255).astype(np.uint8)
+    background = np.clip(previous.astype(np.float32) + rng.normal(0, 12, previous.shape).astype(np.float32), 0, 255)
+    calm = rng.choice(np.array([0, 3, 4, 5, 6, 254, 255], np.uint8), shape)
+    before, cells, counts = previous.astype(np.int32), background.copy(), calm.copy()
+    change = np.abs(small.astype(np.int32) - (cells + np.float32(0.5)).astype(np.int32)).sum(axis=2)
+    stepped = np.abs(small.astype(np.int32) - before).sum(axis=2)
+    moving, behind, faint = np.empty(shape, np.uint8), np.empty((*shape, 3), np.uint8), np.empty(shape, np.uint8)
+    learn = np.ones(shape, np.uint8)
+    calm_moving = evidence_kernels.background_step(
+        small, background, previous, calm, learn, np.ones(3, np.float32), 0.05, 30.0, moving, behind, 5, 12.0, faint
+    )
+    assert np.array_equal(moving, (change > 30).astype(np.uint8))
+    assert np.array_equal(faint, np.where(change > 12, np.where(stepped > 12, 2, 1), 0))
+    assert {0, 1, 2} <= set(np.unique(faint).tolist())
+    want_calm = np.where(stepped <= 30, np.minimum(counts.astype(int) + 1, 255), 0)
+    assert np.array_equal(calm, want_calm) and (want_calm == 255).any() and (want_calm == 0).any()
+    assert calm_moving == np.count_nonzero((change > 30) & (want_calm >= 5)) > 0
 
 
 def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
@@ -310,15 +383,30 @@ def test_the_subsampled_mask_is_numpys_strided_copy_and_skips_the_rows_said_empt
     every = np.zeros(0, np.uint8)
     for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
         mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
-        small, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale, every)
+        small, labels, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale, every)
         assert np.array_equal(small, mask[::scale, ::scale])
         ys, xs = np.nonzero(small)
         assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
+        assert labels.shape == small.shape and labels.dtype == np.int32
         rows = (rng.random(h) < 0.5).astype(np.uint8)  # rows marked 0 are not read: they come out empty
         masked = mask * rows[:, None]
-        small, *box = evidence_kernels.subsampled(mask, scale, rows)
-        assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[1:]
-    assert evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)[1:] == (0, 0, 0, 0)
+        small, _, *box = evidence_kernels.subsampled(mask, scale, rows)
+        assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[2:]
+    empty = evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)
+    assert empty[2:] == (0, 0, 0, 0) and not empty[1].any()
+
+
+def test_the_subsampled_masks_label_image_is_zero_outside_the_box_of_its_set_pixels():
+    """What the labeller does not write (blobs._components labels inside the box only) is zero."""
+    for _ in range(3):  # after other label images were freed: no memory that happens to be zero
+        evidence_kernels.subsampled(np.ones((40, 60), np.uint8) * 7, 2, np.zeros(0, np.uint8))[1][:] = -1
+    mask = np.zeros((40, 60), np.uint8)
+    mask[13:21, 26:39] = 1  # subsampled: rows 7-10, columns 13-19; the box starts at even cells (6, 12)
+    small, labels, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, 2, np.zeros(0, np.uint8))
+    assert (x0, y0, x1, y1) == (12, 6, 20, 11)
+    outside = np.ones(labels.shape, bool)
+    outside[y0:y1, x0:x1] = False
+    assert not labels[outside].any()
 
 
 def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
@@ -341,3 +429,20 @@ def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     out_of_range = cv2.countNonZero(cv2.subtract(moving, in_range))
     assert 0 < out_of_range < cv2.countNonZero(moving)
     assert pale == out_of_range
+
+
+def test_the_picked_and_halved_frames_are_opencvs_nearest_pick_and_area_halving():
+    """kernels.picked_and_halved: every scale-th pixel (gather.every_nth, OpenCV's INTER_NEAREST by a whole factor) and
+    that image halved (motion.halved, OpenCV's INTER_AREA: rounded half up), odd sizes' last row and column left out."""
+    from stereotrack.evidence.gather import every_nth, every_nth_and_halved
+    from stereotrack.evidence.motion import halved
+
+    rng = np.random.default_rng(18)
+    for (h, w), scale in (((720, 1280), 2), ((722, 1282), 2), ((726, 1286), 2), ((121, 163), 2), ((90, 120), 3)):
+        image = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        small, half = evidence_kernels.picked_and_halved(image, scale)
+        assert np.array_equal(small, every_nth(image, scale)), (h, w)
+        assert np.array_equal(half, halved(every_nth(image, scale))), (h, w)
+    odd_view = image[:, ::-1]  # not contiguous: OpenCV's two passes
+    small, half = every_nth_and_halved(odd_view, 2)
+    assert np.array_equal(small, every_nth(odd_view, 2)) and np.array_equal(half, halved(small))
