@@ -316,8 +316,7 @@ def _could_keep(moving, in_range, min_blob_area: int, rows, before=None, marks=N
         LABEL_SCALE,
         min_blob_area,
         least,
-        KNOWN_SHARE,
-        FRESH_SHARE,
+        (KNOWN_SHARE, FRESH_SHARE),
     )
 
 

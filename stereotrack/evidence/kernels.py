@@ -531,59 +531,36 @@ def faint_pixels(cells, cell_rows, cell_cols, in_range, moving, pale, rows):
 
 
 @kernel
-def streak_candidates(mask, words, rows, in_range, range_words, before, before_words, cells, cell_rows, cell_cols, scale, min_area, least, known_share, fresh_share):
-    """Whether some component of the 0/1 ``mask`` (8-connected on its ``scale``-times subsampled copy, as
-    blobs._components labels it; ``rows`` as find_blobs takes them) passes every test gather._kept_streaks makes of
-    a blob but its shape's: a blob (at least ``min_area``), its box away from the edges of the label grid, more than
-    half its pixels out of the range (``in_range``, 0/1), ``least`` of them at least, and with the moving map
-    ``before`` the faint pixels (0/1, H x W; empty: _streaks_only's call) at most ``known_share`` of them there or in
-    range and, with the faint ``cells`` (empty: none) read as faint_pixels reads them, ``fresh_share`` at least in
-    cells marked 2. A blob's pixels are the set pixels of its cells. Only components holding a pixel that could tip
-    the share are walked (one out of the range, and out of ``before``): most maps hold a few balls, whose pale rims
-    are a small share of them, found 8 pixels at a time in the maps' ``words`` (each row's first w - w % 8 bytes as
-    uint64: gather.words). False: no blob of ``mask`` can be kept, and the caller need not label it."""
+def streak_candidates(mask, mask_w, rows, in_range, range_w, before, before_w, cells, cell_rows, cell_cols, scale, min_area, least, shares):
+    """Whether some component of the 0/1 ``mask`` (8-connected on its ``scale``-times subsampled copy, as blobs._components
+    labels it; ``rows`` as find_blobs reads them) passes every test of gather._kept_streaks but the shape's: a blob off the
+    label grid's edges, over half its pixels out of ``in_range``, ``least`` at least, and with ``before`` (the faint pass's
+    moving map; empty: none) at most ``shares[0]`` there or in range, ``shares[1]`` at least in ``cells`` marked 2. Only
+    components with a pixel out of both are walked, found 8 at a time in the maps' words (gather.words). False: no need to label."""
     h, w = mask.shape
-    hs, ws = (h + scale - 1) // scale, (w + scale - 1) // scale
-    every = rows.shape[0] == 0
-    faint = before.shape[0] > 0
-    fresh_marks = cells.shape[0] > 0
+    hs, ws, faint = (h + scale - 1) // scale, (w + scale - 1) // scale, before.shape[0] > 0
+    known_share, fresh_share = shares
     seen = np.zeros((hs, ws), np.uint8)
-    stack_y = np.empty(hs * ws, np.int32)
-    stack_x = np.empty(hs * ws, np.int32)
+    stack_y, stack_x = np.empty(hs * ws, np.int32), np.empty(hs * ws, np.int32)
     for cy in range(hs):
-        y = scale * cy
-        if not every and not rows[y]:
+        y, y_end = scale * cy, min(scale * cy + scale, h)
+        if rows.shape[0] and not rows[y]:
             continue
-        y_end = min(y + scale, h)
-        for x_from in range(0, w, 8):  # 8 pixels at a time (0/1 maps: set, out of range and out of before), most none
-            x_to = min(x_from + 8, w)
-            word = np.uint64(0)
+        for x_from in range(0, w, 8):  # most runs of 8 pixels hold none out of both: skipped (a short last one is read)
+            k, word = x_from // 8, np.uint64(1) if x_from + 8 > w else np.uint64(0)
             for yy in range(y, y_end):
-                if x_to - x_from == 8:
-                    k = x_from // 8
-                    bits = words[yy, k] & ~range_words[yy, k]
-                    if faint:
-                        bits &= ~before_words[yy, k]
-                    word |= bits
-                else:
-                    word |= np.uint64(1)  # a row's last few pixels: looked at one by one
+                if x_from + 8 <= w:
+                    word |= mask_w[yy, k] & ~range_w[yy, k] & (~before_w[yy, k] if faint else ~np.uint64(0))
             if not word:
                 continue
-            for x in range(x_from, x_to):
-                cx = x // scale
-                if not mask[y, scale * cx] or seen[cy, cx]:
-                    continue
-                seed = False  # a pixel of this column of the cell that could tip its blob's share
+            for x in range(x_from, min(x_from + 8, w)):
+                cx, seed = x // scale, False
                 for yy in range(y, y_end):
-                    if mask[yy, x] and not in_range[yy, x] and not (faint and before[yy, x] > 0):
-                        seed = True
-                if not seed:
+                    seed |= mask[yy, x] > 0 and not in_range[yy, x] and not (faint and before[yy, x] > 0)
+                if not seed or not mask[y, scale * cx] or seen[cy, cx]:
                     continue
-                seen[cy, cx] = 1
-                stack_y[0], stack_x[0] = cy, cx
-                top = 1
-                cells_in = 0
-                count = paler = known = fresh = 0
+                seen[cy, cx], stack_y[0], stack_x[0], top = 1, cy, cx, 1
+                cells_in = count = paler = known = fresh = 0
                 bx0, by0, bx1, by1 = ws, hs, 0, 0
                 while top:
                     top -= 1
@@ -592,30 +569,22 @@ def streak_candidates(mask, words, rows, in_range, range_words, before, before_w
                     bx0, by0, bx1, by1 = min(bx0, kx), min(by0, ky), max(bx1, kx + 1), max(by1, ky + 1)
                     for yy in range(scale * ky, min(scale * ky + scale, h)):
                         for xx in range(scale * kx, min(scale * kx + scale, w)):
-                            if not mask[yy, xx]:
-                                continue
-                            count += 1
-                            out = not in_range[yy, xx]
-                            paler += out
-                            if faint:
-                                known += (not out) or before[yy, xx] > 0
-                                if fresh_marks:
-                                    fresh += cells[cell_rows[yy], cell_cols[xx]] == 2
+                            if mask[yy, xx]:
+                                out = not in_range[yy, xx]
+                                count, paler = count + 1, paler + out
+                                if faint:
+                                    known += (not out) or before[yy, xx] > 0
+                                    fresh += cells.shape[0] > 0 and cells[cell_rows[yy], cell_cols[xx]] == 2
                     for ny in range(max(ky - 1, 0), min(ky + 2, hs)):
-                        if not every and not rows[scale * ny]:
-                            continue
                         for nx in range(max(kx - 1, 0), min(kx + 2, ws)):
-                            if mask[scale * ny, scale * nx] and not seen[ny, nx]:
+                            if (not rows.shape[0] or rows[scale * ny]) and mask[scale * ny, scale * nx] and not seen[ny, nx]:
                                 seen[ny, nx] = 1
-                                stack_y[top], stack_x[top] = ny, nx
-                                top += 1
+                                stack_y[top], stack_x[top], top = ny, nx, top + 1
                 if cells_in * scale * scale < min_area or bx0 == 0 or by0 == 0 or bx1 >= ws or by1 >= hs:
-                    continue
-                if paler / max(count, 1) <= 0.5 or paler < least:
-                    continue
-                if faint and (known > known_share * count or (fresh_marks and fresh < fresh_share * count)):
-                    continue
-                return True
+                    continue  # a speck, or at the edge
+                fresh_enough = not cells.shape[0] or fresh >= fresh_share * count
+                if paler / max(count, 1) > 0.5 and paler >= least and (not faint or (known <= known_share * count and fresh_enough)):
+                    return True
     return False
 
 
