@@ -42,7 +42,10 @@ class Blobs:
         return len(self.centres)
 
 
-def _components(mask: np.ndarray, min_area: int, scale: int = 2, rows: np.ndarray | None = None) -> Blobs:
+LABEL_SCALE = 2  # the components are labelled on the mask subsampled this many times (several times cheaper)
+
+
+def _components(mask: np.ndarray, min_area: int, scale: int = LABEL_SCALE, rows: np.ndarray | None = None) -> Blobs:
     """Connected components, found on a ``scale``-times subsampled mask (several times cheaper);
     each blob's centroid is then measured on the full-resolution mask inside its bounding box."""
     small, labels, x0, y0, x1, y1 = subsampled(mask, scale, _EVERY_ROW if rows is None else rows)

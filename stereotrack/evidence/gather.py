@@ -16,9 +16,9 @@ import numpy as np
 
 from ..camera import Camera
 from ..config import Target
-from .blobs import Blobs, ball_like, find_blobs
+from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, faint_pixels, pale_cells, picked_and_halved
+from .kernels import evidence_maps, faint_pixels, pale_cells, picked_and_halved, streak_candidates
 from .motion import halved
 
 
@@ -219,6 +219,8 @@ def every_nth_and_halved(image: np.ndarray, scale: int) -> tuple[np.ndarray, np.
 _NO_HSV = np.zeros((0, 0, 3), np.uint8)  # the compiled pass takes arrays only: empty ones say "none"
 _NO_TABLE = np.zeros((0, 0), np.uint8)
 _NO_INDEX = np.zeros(0, np.intp)
+_NO_ROWS = np.zeros(0, np.uint8)
+_NO_WORDS = np.zeros((0, 0), np.uint64)
 _NO_BOUNDS = np.zeros(0, np.int64)
 
 
@@ -234,8 +236,10 @@ def _streaks_only(moving: np.ndarray, in_range: np.ndarray, min_blob_area: int, 
     like a streak that are mostly that pale, with fewer pixels in range around them than pale ones: only a ball swept
     over the background during the exposure is that pale. A slower ball's pale rim stays out (a sliver of it in the
     moving map can be streak-shaped, beside the ball in range: pendulum4 lost a ball for 3 frames). ``rows``: as
-    find_blobs takes them. Called only when some moving pixel is out of the range (evidence_maps counts them)."""
-    kept = _kept_streaks(moving, in_range, min_blob_area, rows)
+    find_blobs takes them. Called only when some moving pixel is out of the range (evidence_maps counts them); the
+    moving map is labelled only when some blob of it could be mostly that pale (_could_keep: a moving ball's pale rim
+    is a small share of its blob; pendulum4 labelled it in every frame to keep nothing)."""
+    kept = _kept_streaks(moving, in_range, min_blob_area, rows) if _could_keep(moving, in_range, min_blob_area, rows) else []
     cv2.bitwise_and(moving, in_range, dst=moving)  # every pale pixel out (both maps 0/1), then the streaks' back
     for ys, xs in kept:
         moving[ys, xs] = 1
@@ -276,10 +280,44 @@ def _add_faint_streaks(moving, in_range, faint: Faint, streak: np.ndarray, min_b
     if more is None:
         return rows
     pale, pale_rows, marks = more
+    if not _could_keep(pale, in_range, min_blob_area, pale_rows, moving, marks, least):
+        return rows  # (pendulum4: a faint halo around each moving ball, in every frame, none mostly new)
     kept = _kept_streaks(pale, in_range, min_blob_area, pale_rows, cv2.bitwise_or(moving, in_range), marks, least)
     for ys, xs in kept:
         moving[ys, xs] = 1
     return pale_rows if kept else rows
+
+
+def words(image: np.ndarray) -> np.ndarray:
+    """Each row's first w - w % 8 bytes of a uint8 image as uint64 words (H x w // 8), to test 8 pixels at once: a
+    view of a C-contiguous image whose width is a multiple of 8, else a copy."""
+    h, w = image.shape
+    if w % 8 == 0 and image.flags.c_contiguous:
+        return image.view(np.uint64)
+    return np.ascontiguousarray(image[:, : w - w % 8]).view(np.uint64)
+
+
+def _could_keep(moving, in_range, min_blob_area: int, rows, before=None, marks=None, least: int = 0) -> bool:
+    """Whether some blob of ``moving`` passes every test of _kept_streaks but its shape's (kernels.streak_candidates,
+    without labelling it): False, and _kept_streaks would keep nothing. ``before`` is the faint pass's moving map
+    before the faint pixels (``known`` there is it or the range), ``marks`` and ``least`` as _kept_streaks takes them."""
+    cells, cell_rows, cell_cols = marks if marks is not None else (_NO_TABLE, _NO_INDEX, _NO_INDEX)
+    return streak_candidates(
+        moving,
+        words(moving),
+        _NO_ROWS if rows is None else rows,
+        in_range,
+        words(in_range),
+        _NO_TABLE if before is None else before,
+        _NO_WORDS if before is None else words(before),
+        cells,
+        cell_rows,
+        cell_cols,
+        LABEL_SCALE,
+        min_blob_area,
+        least,
+        (KNOWN_SHARE, FRESH_SHARE),
+    )
 
 
 def _kept_streaks(

@@ -530,6 +530,64 @@ def faint_pixels(cells, cell_rows, cell_cols, in_range, moving, pale, rows):
     return new
 
 
+@kernel
+def streak_candidates(mask, mask_w, rows, in_range, range_w, before, before_w, cells, cell_rows, cell_cols, scale, min_area, least, shares):
+    """Whether some component of the 0/1 ``mask`` (8-connected on its ``scale``-times subsampled copy, as blobs._components
+    labels it; ``rows`` as find_blobs reads them) passes every test of gather._kept_streaks but the shape's: a blob off the
+    label grid's edges, over half its pixels out of ``in_range``, ``least`` at least, and with ``before`` (the faint pass's
+    moving map; empty: none) at most ``shares[0]`` there or in range, ``shares[1]`` at least in ``cells`` marked 2. Only
+    components with a pixel out of both are walked, found 8 at a time in the maps' words (gather.words). False: no need to label."""
+    h, w = mask.shape
+    hs, ws, faint = (h + scale - 1) // scale, (w + scale - 1) // scale, before.shape[0] > 0
+    known_share, fresh_share = shares
+    seen = np.zeros((hs, ws), np.uint8)
+    stack_y, stack_x = np.empty(hs * ws, np.int32), np.empty(hs * ws, np.int32)
+    for cy in range(hs):
+        y, y_end = scale * cy, min(scale * cy + scale, h)
+        if rows.shape[0] and not rows[y]:
+            continue
+        for x_from in range(0, w, 8):  # most runs of 8 pixels hold none out of both: skipped (a short last one is read)
+            k, word = x_from // 8, np.uint64(1) if x_from + 8 > w else np.uint64(0)
+            for yy in range(y, y_end):
+                if x_from + 8 <= w:
+                    word |= mask_w[yy, k] & ~range_w[yy, k] & (~before_w[yy, k] if faint else ~np.uint64(0))
+            if not word:
+                continue
+            for x in range(x_from, min(x_from + 8, w)):
+                cx, seed = x // scale, False
+                for yy in range(y, y_end):
+                    seed |= mask[yy, x] > 0 and not in_range[yy, x] and not (faint and before[yy, x] > 0)
+                if not seed or not mask[y, scale * cx] or seen[cy, cx]:
+                    continue
+                seen[cy, cx], stack_y[0], stack_x[0], top = 1, cy, cx, 1
+                cells_in = count = paler = known = fresh = 0
+                bx0, by0, bx1, by1 = ws, hs, 0, 0
+                while top:
+                    top -= 1
+                    ky, kx = stack_y[top], stack_x[top]
+                    cells_in += 1
+                    bx0, by0, bx1, by1 = min(bx0, kx), min(by0, ky), max(bx1, kx + 1), max(by1, ky + 1)
+                    for yy in range(scale * ky, min(scale * ky + scale, h)):
+                        for xx in range(scale * kx, min(scale * kx + scale, w)):
+                            if mask[yy, xx]:
+                                out = not in_range[yy, xx]
+                                count, paler = count + 1, paler + out
+                                if faint:
+                                    known += (not out) or before[yy, xx] > 0
+                                    fresh += cells.shape[0] > 0 and cells[cell_rows[yy], cell_cols[xx]] == 2
+                    for ny in range(max(ky - 1, 0), min(ky + 2, hs)):
+                        for nx in range(max(kx - 1, 0), min(kx + 2, ws)):
+                            if (not rows.shape[0] or rows[scale * ny]) and mask[scale * ny, scale * nx] and not seen[ny, nx]:
+                                seen[ny, nx] = 1
+                                stack_y[top], stack_x[top], top = ny, nx, top + 1
+                if cells_in * scale * scale < min_area or bx0 == 0 or by0 == 0 or bx1 >= ws or by1 >= hs:
+                    continue  # a speck, or at the edge
+                fresh_enough = not cells.shape[0] or fresh >= fresh_share * count
+                if paler / max(count, 1) > 0.5 and paler >= least and (not faint or (known <= known_share * count and fresh_enough)):
+                    return True
+    return False
+
+
 @kernel(inline="always")
 def _runs(index, n):
     """Per cell 0..n-1, the run [from, to) of positions whose (rising) ``index`` is that cell (empty: to <= from)."""

@@ -215,3 +215,95 @@ def test_faint_pixels_reads_the_cells_as_the_nearest_neighbour_upscaling_does():
         assert np.array_equal(pale, (marks | (moving > 0)).astype(np.uint8))
         assert new == np.count_nonzero(marks & (in_range == 0) & (moving == 0))
         assert np.array_equal(rows, marks.any(axis=1).astype(np.uint8))
+
+
+def _candidates_by_labelling(mask, rows, in_range, before, marks, min_area, least):
+    """streak_candidates' answer the slow way: OpenCV's 8-connected components of the subsampled mask (rows marked 0
+    read as empty), and per component its pixels' shares, as gather._kept_streaks tests them (all but the shape)."""
+    from stereotrack.evidence.gather import FRESH_SHARE, KNOWN_SHARE
+
+    small = mask[::2, ::2].copy()
+    if len(rows):
+        small[rows[::2][: small.shape[0]] == 0] = 0
+    n, labels = cv2.connectedComponents(small, connectivity=8)
+    cell_of = np.kron(labels, np.ones((2, 2), np.int32))[: mask.shape[0], : mask.shape[1]]
+    for c in range(1, n):
+        ys, xs = np.nonzero((cell_of == c) & (mask > 0))
+        cy, cx = np.nonzero(labels == c)
+        inside = cx.min() > 0 and cy.min() > 0 and cx.max() + 1 < small.shape[1] and cy.max() + 1 < small.shape[0]
+        if len(cy) * 4 < min_area or not inside:
+            continue
+        paler = np.count_nonzero(in_range[ys, xs] == 0)
+        if paler / max(len(ys), 1) <= 0.5 or paler < least:
+            continue
+        if before is not None:
+            known = np.count_nonzero((before[ys, xs] > 0) | (in_range[ys, xs] > 0))
+            fresh = np.count_nonzero(marks[0][marks[1][ys], marks[2][xs]] == 2)
+            if known > KNOWN_SHARE * len(ys) or fresh < FRESH_SHARE * len(ys):
+                continue
+        return True
+    return False
+
+
+def test_the_streak_candidates_are_what_labelling_the_map_finds():
+    """kernels.streak_candidates (gather._could_keep) against OpenCV's components of the subsampled map: a blob mostly
+    pale (and mostly new and fresh, for the faint pass) away from the edge, on maps of even and odd sizes, with rows
+    said empty, for both calls."""
+    from stereotrack.evidence.gather import _could_keep, _nearest
+
+    rng = np.random.default_rng(5)
+    answers = []
+    for trial in range(120):
+        h, w = [(60, 80), (61, 83), (48, 64), (37, 45)][trial % 4]
+        mask = np.zeros((h, w), np.uint8)
+        in_range = np.zeros((h, w), np.uint8)
+        for _ in range(rng.integers(1, 5)):  # discs and streaks, some in range, some pale, some half and half
+            x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+            if rng.random() < 0.5:
+                cv2.circle(mask, (x, y), int(rng.integers(2, 7)), 1, -1)
+            else:
+                cv2.line(mask, (x, y), (x + int(rng.integers(-20, 20)), y + int(rng.integers(-8, 8))), 1, int(rng.integers(1, 4)))
+            cv2.circle(in_range, (x + int(rng.integers(-4, 5)), y), int(rng.integers(0, 6)), 1, -1)
+        in_range &= (rng.random((h, w)) < 0.9).astype(np.uint8)
+        mask |= in_range & (rng.random((h, w)) < 0.5).astype(np.uint8)
+        rows = mask.max(axis=1) if trial % 3 else np.zeros(0, np.uint8)
+        if trial % 5 == 0 and len(rows):
+            rows[rng.integers(0, h, 4)] = 0  # rows said empty are not read
+        before = marks = None
+        least = int(rng.integers(0, 12))
+        if trial % 2:
+            before = mask & (rng.random((h, w)) < 0.3).astype(np.uint8)
+            cells = rng.integers(0, 3, ((h + 1) // 2, (w + 1) // 2)).astype(np.uint8)
+            marks = (cells, _nearest(cells.shape[0], h), _nearest(cells.shape[1], w))
+        expected = _candidates_by_labelling(mask, rows, in_range, before, marks, 6, least)
+        assert _could_keep(mask, in_range, 6, rows if len(rows) else None, before, marks, least) == expected
+        answers.append(expected)
+    assert 10 < sum(answers) < len(answers) - 10  # both answers were asked for
+
+
+def test_a_moving_balls_pale_rim_is_not_labelled_and_a_pale_streak_still_is(monkeypatch):
+    """The streak checks label a map only when some blob of it could be mostly pale (gather._could_keep): a ball in
+    range moving with a pale rim is not (pendulum4 labelled its moving map twice a frame per camera to keep nothing,
+    0.8-0.9 ms of a 9 ms step); a pale streak, or a faint one, still is, and still kept."""
+    from stereotrack.evidence import gather
+
+    labelled = []
+    kept = gather._kept_streaks
+
+    def counted(*args, **kwargs):
+        labelled.append(1)
+        return kept(*args, **kwargs)
+
+    monkeypatch.setattr(gather, "_kept_streaks", counted)
+    rim_blue = cv2.cvtColor(np.uint8([[[118, 200, 170]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
+
+    def ball_with_rim(img):
+        cv2.circle(img, (300, 240), 16, PALE_BLUE, -1)
+        cv2.circle(img, (300, 240), 14, rim_blue, -1)
+
+    _, ball = _moving_view(ball_with_rim)
+    assert ball.moving[240, 300] == 1 and not labelled
+    _, streak = _moving_view(lambda img: cv2.line(img, (200, 240), (236, 246), PALE_BLUE, 6))
+    assert streak.moving[243, 218] == 1 and labelled
+    labelled.clear()
+    assert _faint_view(0.09).moving.sum() > 0 and labelled
