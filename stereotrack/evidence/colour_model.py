@@ -135,9 +135,17 @@ class ColourModel:
         """The colours of things of the room that move, as learnt so far (H_BINS x S_BINS uint8, 1: more than MOVED of
         the room's pixels of it move, over THING and under WALL of the view): what evidence_maps takes a hand's colour
         for. None without ``spread`` (a ball of every hue) or before anything was learnt to move."""
+        moves = self._moves()
+        if moves is None:
+            return None
+        return (moves & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
+
+    def _moves(self) -> np.ndarray | None:
+        """Per colour bin: more than MOVED of the room's pixels of it move (None without ``spread`` or before anything
+        was learnt to move)."""
         if not self.spread or self.moving is None or self.background is None:
             return None
-        return ((self.moving > MOVED * self.background) & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
+        return self.moving > MOVED * self.background
 
     def probability(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) per pixel, 0..255 (uint8): the table read back per pixel. (The tracker reads the
@@ -165,10 +173,9 @@ class ColourModel:
         if learn_moving and discs.shape[0]:
             off_ball = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP, OFF_BALL)
         on_ball, rest, moved = hs_histograms(hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball)
-        if self.spread:
-            moves = self.moving > MOVED * self.background if self.moving is not None and self.background is not None else False
-            thing = (self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves  # SPREAD: not a wall's, nor a still prop's
-            on_ball[thing] = 0
+        moves = self._moves()
+        if moves is not None:  # SPREAD: a moving thing's colour, not a wall's, nor a still prop's
+            on_ball[(self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves] = 0
         if on_ball.any():
             self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
             self.prior *= 1 - self.rate

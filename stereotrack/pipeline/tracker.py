@@ -21,7 +21,7 @@ from ..errors import StereotrackError
 from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, Faint, every_nth, every_nth_and_halved, on_grid
-from ..evidence.motion import SCALE, BackgroundModel, halved, shading, still_only
+from ..evidence.motion import SCALE, BackgroundModel, shading, still_only
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -99,11 +99,10 @@ class Tracker:
     def _colours(self, j: int, image: np.ndarray):
         # The frame on the background's grid is made here too (no track is needed for it: made ahead with the rest),
         # in the same pass as the evidence grid's when that is coarser than the frame.
-        if self.backgrounds and self.scales[j] > 1:
+        if self.backgrounds:
             small, small_halved = every_nth_and_halved(image, self.scales[j])
         else:
-            small = every_nth(image, self.scales[j])
-            small_halved = halved(small) if self.backgrounds else None
+            small, small_halved = every_nth(image, self.scales[j]), None
         # The ranges' integral images are made with the other maps (evidence/gather.py), if at all
         masks = camera_masks(self.evidence_cameras[j].name, small, self.config.targets, integrals=False)
         return small, masks, small_halved

@@ -330,10 +330,10 @@ class TrackManager:
 
     def _pace(self, tr: _Track, sharp: bool) -> float | None:
         """How fast the ball of a confirmed track not in flight may have gone since its latest hit where its motion model
-        does not follow it, to be this object (``sharp``: ``_sharp``): one at rest since a catch or a stop, or slower than
-        it came, may have been thrown again as fast as it came (its ``arrival``; a launch blurs: any object); a fast one (STOP_SPEED) missed since the
-        frame before may have stopped out of sight (a ball at rest is sharp; one seen then is tried where it was,
-        ``_caught``). None for any other."""
+        does not follow it, to be this object (``sharp``: ``_sharp``): one at rest since a catch or a stop, or slower
+        than it came, may have been thrown again as fast as it came (its ``arrival``; a launch blurs: any object); a
+        fast one (STOP_SPEED) missed since the frame before may have stopped out of sight (a ball at rest is sharp; one
+        seen then is tried where it was, ``_caught``). None for any other."""
         if not tr.confirmed or tr.in_flight:
             return None
         speed = float(np.linalg.norm(tr.x[3:]))
