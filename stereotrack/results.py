@@ -66,6 +66,9 @@ class TrackEstimate:
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
     flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
     settled: bool = False  # it has moved since it was first past tentative, or lived a while: its ball is no ghost (tracks/manager.py)
+    # The frame it is confirmed: its hits while tentative, each (time, position, 3 x 3 covariance, n_particles), for the
+    # tracks.csv to write in hindsight (a ball is in the file from the frame it was first seen, not confirm_time later).
+    before: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -47,7 +47,7 @@ def open_sinks(
     port another program holds is refused before the tracks file exists (it is written under a temporary
     name, see sinks/tracks_csv.py)."""
     from ..sinks.network import make_network_sink
-    from ..sinks.tracks_csv import TracksCsvSink
+    from ..sinks.tracks_csv import TracksCsvSink, hold_for
     from ..sinks.viewer.flags import make_viz_sink
 
     network = make_network_sink(args, config)
@@ -58,7 +58,7 @@ def open_sinks(
             args, rig, config, truth=truth, recording_name="live" if live else None, live=live, protect=[*protect, tracks_csv], hold=hold
         )
         if tracks_csv is not None:
-            opened.append(TracksCsvSink(tracks_csv))
+            opened.append(TracksCsvSink(tracks_csv, hold_for(config.tracks)))
     except BaseException:
         for sink in [*opened, viewer]:
             if sink is not None:

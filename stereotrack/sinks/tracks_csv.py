@@ -3,50 +3,86 @@
 from __future__ import annotations
 
 import sys
+from collections import deque
 from pathlib import Path
 
 import numpy as np
 
+from ..config import TrackSettings
 from ..files import AtomicOutput, read_columns
 from ..results import FrameResult
 
+_EPS_TIME = 1e-9
+_FRAME_MARGIN = 0.1  # seconds: a frame or more at any camera rate, beyond the hold's bound
 HEADER = ["frame", "time", "track_id", "x", "y", "z", "sx", "sy", "sz", "n_particles", "target"]
 
 
 class TracksCsvSink:
     """Writes one row per confirmed track per frame, flushed every frame, into a temporary file beside
     ``path`` that replaces it when the run ends or is stopped with Ctrl-C; a run that fails leaves the
-    previous file as it was (check the path first with ``files.check_output``)."""
+    previous file as it was (check the path first with ``files.check_output``).
 
-    def __init__(self, path: str | Path):
+    With ``hold`` seconds, each frame's rows wait that long before they are written, so that a track confirmed
+    meanwhile is in the file from the frame it was first seen (its ``TrackEstimate.before`` hits, in frame
+    order): a ball is not missing for the confirm_time it takes to trust it. ``hold_for`` gives the hold that
+    covers every track a config can confirm."""
+
+    def __init__(self, path: str | Path, hold: float = 0.0):
         self.path = Path(path)
+        self.hold = hold
         self._out = AtomicOutput(self.path, "tracks file")
         self._file = self._out.open("w", newline="")
         self._file.write(",".join(HEADER) + "\n")
+        self._held: deque[tuple[float, int, list[str]]] = deque()  # (time, index, rows) of the frames not written yet, oldest first
         self.rows = 0
 
     def write(self, result: FrameResult) -> None:
         f = result.frame
-        lines = []
+        lines = [_row(f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target) for tr in result.confirmed]
+        self._held.append((f.time, f.index, lines))
         for tr in result.confirmed:
-            sd = np.sqrt(np.clip(np.diag(tr.covariance), 0, None))
-            x, y, z = tr.position
-            lines.append(
-                f"{f.index},{f.time:.6f},{tr.track_id},{x:.5f},{y:.5f},{z:.5f},{sd[0]:.5f},{sd[1]:.5f},{sd[2]:.5f},{tr.n_particles},{tr.target}\n"
-            )
+            for time, position, covariance, n_particles in tr.before:
+                held = self._frame_at(time)
+                if held is not None:  # always, when the hold covers the config's confirm_time (hold_for)
+                    held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
+        while self._held and self._held[0][0] <= f.time - self.hold + _EPS_TIME:  # a frame's rows go once it is ``hold`` old
+            self._flush_oldest()
+        self._file.flush()
+
+    def _frame_at(self, time: float) -> tuple[float, int, list[str]] | None:
+        for held in reversed(self._held):
+            if held[0] <= time:
+                return held if held[0] == time else None
+        return None
+
+    def _flush_oldest(self) -> None:
+        lines = self._held.popleft()[2]
         if lines:
             self._file.writelines(lines)
             self.rows += len(lines)
-        self._file.flush()
 
     def close(self) -> None:
         if self._file.closed:
             return
         failing = sys.exc_info()[0]
         if failing is None or issubclass(failing, KeyboardInterrupt):  # Ctrl-C keeps what was tracked
+            while self._held:
+                self._flush_oldest()
             self._out.commit()
         else:
             self._out.abort()
+
+
+def hold_for(settings: TrackSettings) -> float:
+    """Seconds a frame's rows wait so every track confirmed later has its first hits written (TracksCsvSink): a track
+    is confirmed at its first hit confirm_time after its birth, and its hits are at most tentative_time apart."""
+    return settings.confirm_time + settings.tentative_time + _FRAME_MARGIN
+
+
+def _row(index: int, time: float, track_id: int, position, covariance, n_particles: int, target: str) -> str:
+    sd = np.sqrt(np.clip(np.diag(covariance), 0, None))
+    x, y, z = position
+    return f"{index},{time:.6f},{track_id},{x:.5f},{y:.5f},{z:.5f},{sd[0]:.5f},{sd[1]:.5f},{sd[2]:.5f},{n_particles},{target}\n"
 
 
 def read_tracks(path: str | Path) -> np.ndarray:

@@ -12,6 +12,8 @@ lifecycle moves on:
     tentative --(unseen for tentative_time s)--> deleted
 
 All limits are in seconds, so a run behaves the same at 15, 30 or 60 fps.
+The frame a track is confirmed, its estimate carries its hits while tentative
+(``TrackEstimate.before``): tracks.csv writes the ball from its first frame.
 Objects of different targets never match each other; ids are positive
 integers unique across targets within a run.
 
@@ -88,6 +90,7 @@ class _Track:
     first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
+    early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -219,8 +222,15 @@ class TrackManager:
                     self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
+        for t in self._tracks:
+            if t.hit and not t.confirmed:
+                t.early.append((time, t.x[:3].copy(), t.P[:3, :3].copy(), t.n_particles))
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
-        return tuple(self._estimate(t, t.x, t.P, v, t.settled) for t, v in zip(self._tracks, seen))
+        estimates = tuple(self._estimate(t, t.x, t.P, v, t.settled, t.early if t.confirmed else ()) for t, v in zip(self._tracks, seen))
+        for t in self._tracks:
+            if t.confirmed:
+                t.early = []  # given once, the frame it was confirmed
+        return estimates
 
     def reset(self) -> None:
         """Forget every track (ids keep counting up: they stay unique within the run)."""
@@ -503,7 +513,7 @@ class TrackManager:
             inside &= ok & cam.in_image(uv)
         return inside
 
-    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool) -> TrackEstimate:
+    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = ()) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
@@ -524,4 +534,5 @@ class TrackManager:
             reported=bool(reported),
             flight=tr.parabola,
             settled=settled,
+            before=tuple(before),
         )

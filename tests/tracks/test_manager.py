@@ -513,3 +513,18 @@ def test_a_fast_ball_is_looked_for_at_its_pace_only_just_after_a_miss():
     for i in range(7, 16):
         tracks = m.update([obj(new, sigma=0.003)] if i == 15 else [], i / 30)
     assert all(np.linalg.norm(tr.position - new) > 0.1 for tr in tracks if tr.track_id == 1)
+
+
+def test_a_confirmed_track_hands_over_its_tentative_hits_once():
+    """The frame a track is confirmed, it gives its hits while tentative (for tracks.csv to write in hindsight),
+    then never again; a speck seen once gives nothing."""
+    m = TrackManager(TrackSettings())
+    given = []
+    for i in range(8):
+        objs = [obj([0.1 * i / 30, 0.0, 2.0])] + ([obj([1.0, 1.0, 3.0])] if i == 2 else [])
+        for tr in m.update(objs, i / 30):
+            if tr.before:
+                given.append((i, tr.track_id, [t for t, *_ in tr.before]))
+    assert len(given) == 1
+    i, track_id, times = given[0]
+    assert i == 3 and np.allclose(times, [0, 1 / 30, 2 / 30])

@@ -1,0 +1,62 @@
+"""The tracks CSV sink: a ball is in the file from the frame it was first seen, rows in frame order."""
+
+import numpy as np
+import pytest
+
+from stereotrack.config import TrackSettings
+from stereotrack.frames import FramePair
+from stereotrack.results import FrameResult, Object3D
+from stereotrack.sinks.tracks_csv import TracksCsvSink, hold_for, read_tracks
+from stereotrack.tracks.manager import TrackManager
+
+FPS = 30
+
+
+def _ball(i: int, rng: np.random.Generator) -> Object3D:
+    position = np.array([0.1 * i / FPS, 0.0, 2.0]) + rng.normal(0, 0.002, 3)
+    return Object3D(target="red", position=position, covariance=np.eye(3) * 0.005**2, mass=0.5, n_particles=100)
+
+
+def _write(path, hold: float, frames: int = 20, stop_with=None):
+    """A ball seen from frame 5 on, and a speck seen in frame 12 only (clutter: never confirmed)."""
+    rng = np.random.default_rng(3)
+    settings = TrackSettings()
+    manager = TrackManager(settings)
+    sink = TracksCsvSink(path, hold)
+    try:
+        for i in range(frames):
+            objects = [_ball(i, rng)] if i >= 5 else []
+            if i == 12:
+                objects.append(
+                    Object3D(target="red", position=np.array([1.0, 1.0, 3.0]), covariance=np.eye(3) * 1e-4, mass=0.2, n_particles=20)
+                )
+            tracks = manager.update(objects, i / FPS)
+            sink.write(FrameResult(FramePair(i, (), (i / FPS,)), tracks=tracks))
+        if stop_with is not None:
+            raise stop_with
+    except KeyboardInterrupt:
+        pass
+    finally:
+        sink.close()
+    return read_tracks(path), settings
+
+
+def test_a_track_is_written_from_its_first_hit_in_frame_order(tmp_path):
+    rows, settings = _write(tmp_path / "t.csv", hold_for(TrackSettings()))
+    frames = rows[:, 0]
+    assert frames[0] == 5, "the ball is in the file from the frame it was first seen"
+    assert np.all(np.diff(frames) >= 0), "rows stay in frame order"
+    assert np.array_equal(frames, np.arange(5, 20)), "one row a frame, the speck never confirmed is not there"
+    assert np.all(np.abs(rows[:, 3:6] - np.c_[0.1 * frames / FPS, 0 * frames, 2 + 0 * frames]) < 0.02)
+
+
+def test_without_a_hold_a_track_starts_where_it_was_confirmed(tmp_path):
+    rows, settings = _write(tmp_path / "t.csv", 0.0)
+    assert rows[0, 0] == 5 + round(settings.confirm_time * FPS)
+
+
+@pytest.mark.parametrize("frames", [6, 9, 20])
+def test_ctrl_c_writes_the_held_rows(tmp_path, frames):
+    rows, _ = _write(tmp_path / "t.csv", hold_for(TrackSettings()), frames=frames, stop_with=KeyboardInterrupt())
+    confirmed = frames - 1 >= 5 + round(TrackSettings().confirm_time * FPS)
+    assert len(rows) == (frames - 5 if confirmed else 0) and (not len(rows) or rows[-1, 0] == frames - 1)
