@@ -68,6 +68,14 @@ class TrackerSettings:
     )
     motion: bool = setting(True, "learn each camera's background: the moving part of the colour mask counts as evidence too")
     background_rate: float = setting(0.05, "how fast the background learns a change, share per frame", low=0.001, high=1.0)
+    background_start: int = setting(
+        15,
+        "tracking a recording with a white or grey target: each camera's background starts as the per-pixel median of "
+        "this many of its frames, spread over its first 10 s (balls move, the room does not), not as its first frame, "
+        "whose balls leave ghosts where they were; 0 = from the first frame, as live cameras and coloured targets do",
+        low=0,
+        high=1000,
+    )
     foreground_threshold: float = setting(
         30.0, "grey levels (summed over the three channels) a pixel must differ from the background to be moving", low=1.0, high=254.0
     )

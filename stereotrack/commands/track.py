@@ -51,6 +51,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_network_arguments(p)
 
 
+START_SPAN = 10.0  # seconds: the backgrounds' starting frames are spread over the first this much of the frames tracked
+
+
+def start_frames(timestamps, wanted, count: int):
+    """Up to ``count`` of the ``wanted`` frames (indices), evenly spread over their first START_SPAN seconds
+    (``timestamps``: seconds, a row per frame, a column per camera)."""
+    import numpy as np
+
+    wanted = np.asarray(wanted, int)
+    if not len(wanted) or count <= 0:
+        return wanted[:0]
+    times = np.asarray(timestamps, float)[wanted].mean(axis=1)
+    first = wanted[times - times[0] <= START_SPAN]
+    return np.unique(first[np.linspace(0, len(first) - 1, min(count, len(first))).round().astype(int)])
+
+
 def resolve_config(recording, config_path: str | None):
     from ..config import load_config
     from ..errors import StereotrackError
@@ -125,6 +141,9 @@ def _track(args, default_out: Path | None, stopper) -> int:
     sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth, protect=inputs)  # a missing viewer or a taken port: refused here
     try:
         tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
+        count = getattr(tracker, "background_start", 0)  # the baseline has no background
+        if count:  # the backgrounds start from frames spread over the recording, not from its first frame's balls
+            tracker.start_backgrounds(list(rec.frames(only=start_frames(rec.timestamps, wanted, count))))
     except BaseException:
         close_all(sinks)
         raise

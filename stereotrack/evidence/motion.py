@@ -21,7 +21,7 @@ ball's first position fades within a few frames, before a track confirms.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import cv2
 import numpy as np
@@ -211,6 +211,17 @@ class BackgroundModel:
         self._behind_hsv: np.ndarray | None = None  # its HSV, made when first asked
         self._previous: np.ndarray | None = None  # uint8, the last frame at that size (after its gain)
         self._calm: np.ndarray | None = None  # uint8, frames in a row each cell has not changed (at most 255)
+
+    def start(self, frames_halved: Sequence[np.ndarray]) -> None:
+        """Start the background as the per-pixel median of frames at its grid (``halved``), taken from the whole of a
+        recording: where the balls are in fewer than half of them, it is the room alone, and the first frame tracked
+        leaves no ghost ball behind (white_ball tune seeds: the start's ghosts and late balls were most of the errors)."""
+        median = np.median(np.stack(frames_halved), axis=0).astype(np.uint8)
+        self._background = median.astype(np.float32)
+        self._previous = median
+        self._calm = np.zeros(median.shape[:2], np.uint8)
+        self._frames = int(np.ceil(1.0 / self.rate))  # learnt: no warm-up
+        self.faint = np.zeros(median.shape[:2], np.uint8) if self.keep_faint else None
 
     def foreground(self, image: np.ndarray, balls: TrackedBalls | None = None) -> np.ndarray:
         """This frame's foreground at the image's size (H x W uint8 0/1); then learn the frame, except where ``balls`` are."""

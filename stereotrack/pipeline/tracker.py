@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
@@ -95,6 +96,26 @@ class Tracker:
         and nothing the tracks hold changes it: a caller with the next pair at hand may make it ahead, in another
         thread (pipeline/run.py), and give it to ``step``."""
         return [self._colours(j, image) for j, image in enumerate(images)]
+
+    @property
+    def background_start(self) -> int:
+        """How many frames spread over a recording its backgrounds would start from (``start_backgrounds``; 0: from its
+        first frame). Only with a white or grey target: its colour is the room's, so motion finds it, and the first
+        frame's balls left ghosts and hid moving balls (white_ball tune seeds 0-19: median 0.863 -> 0.974). A coloured
+        ball's colour finds it from the first frame, and in such a background a hand that moves a little is moving
+        whole from the first frame, before any track has taught the colour model the ball's colours (hands tune
+        seeds 12 and 17: 0.522 -> 0.033, 0.872 -> 0.256)."""
+        if not self.backgrounds or not any(t.any_hue for t in self.config.targets):
+            return 0
+        return self.config.tracker.background_start
+
+    def start_backgrounds(self, pairs: Sequence[FramePair]) -> None:
+        """Start each camera's background from these pairs (spread over a recording) instead of the first frame
+        tracked (motion.BackgroundModel.start). Nothing to do without motion."""
+        if not self.backgrounds or not pairs:
+            return
+        for j, bg in enumerate(self.backgrounds):
+            bg.start([every_nth_and_halved(pair.images[j], self.scales[j])[1] for pair in pairs])
 
     def _colours(self, j: int, image: np.ndarray):
         # The frame on the background's grid is made here too (no track is needed for it: made ahead with the rest),

@@ -83,3 +83,26 @@ def test_colour_learn_writes_a_target_that_tracks(recording, tmp_path):
     out = tmp_path / "t.csv"
     assert cli("track", recording, "--config", cfg, "--out", out, "--quiet").returncode == 0
     assert len(np.unique(read_tracks(out)[:, 2])) == 2
+
+
+def test_the_backgrounds_start_from_frames_spread_over_the_first_ten_seconds_tracked():
+    from stereotrack.commands.track import START_SPAN, start_frames
+
+    times = np.repeat(np.arange(900)[:, None] / 30.0, 2, axis=1)  # 30 s at 30 fps, two cameras
+    picked = start_frames(times, np.arange(900), 15)
+    assert len(picked) == 15 and picked[0] == 0 and picked[-1] == round(START_SPAN * 30)
+    assert np.ptp(np.diff(picked)) <= 1  # evenly spread
+    later = start_frames(times, np.arange(450, 900), 15)  # --start 450
+    assert later[0] == 450 and later[-1] == 450 + round(START_SPAN * 30)
+    assert list(start_frames(times, np.arange(5), 15)) == [0, 1, 2, 3, 4]  # a short recording: every frame
+    assert len(start_frames(times, np.arange(900), 0)) == 0
+
+
+def test_a_config_may_start_the_backgrounds_from_the_first_frame(recording, tmp_path):
+    cfg = yaml.safe_load((recording / "config.yaml").read_text()) if (recording / "config.yaml").exists() else None
+    assert cfg is not None
+    cfg["tracker"] = {"background_start": 0}
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    r = cli("track", recording, "--config", tmp_path / "c.yaml", "--out", tmp_path / "t.csv", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert len(np.unique(read_tracks(tmp_path / "t.csv")[:, 2])) == 2

@@ -341,3 +341,21 @@ def test_a_disc_just_off_the_images_edge_shows_nothing_and_warns_nothing():
         warnings.simplefilter("error")
         assert structure(image, 80.9, 30.0, 1.0) == 0.0
         assert structure(image, 40.0, 30.0, 4.0) > STRUCTURE_MIN  # noise is all gradient
+
+
+def test_a_background_started_from_frames_spread_over_a_recording_shows_the_first_frames_ball_and_no_ghost():
+    """Started as the first frame, the background holds the ball: nothing moves in that frame, and where the ball was
+    differs from the background once it has left (a ghost). Started as the median of frames in which the ball is
+    elsewhere each time, the background is the room alone: the ball moves from the first frame on, and leaves nothing."""
+    cam = default_rig().cameras[0]
+    path = [np.array([-0.5 + 0.1 * k, 1.5, 0.0]) for k in range(10)]  # across the wall and beyond, a ball width a frame
+    images = [frame(cam, ball) for ball in path]
+    u0, v0 = cam.project(path[0][None])[0][0].astype(int)
+    for started in (False, True):
+        bg = BackgroundModel(cam, rate=0.05, threshold=30)
+        if started:
+            bg.start([halved(image) for image in images])
+        first = bg.foreground(images[0])
+        second = bg.foreground(images[1])
+        assert bool(first[v0, u0]) == started  # the ball is moving in the first frame
+        assert bool(second[v0 - 2 : v0 + 3, u0 - 2 : u0 + 3].any()) != started  # the ghost where it was

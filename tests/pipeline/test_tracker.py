@@ -228,3 +228,24 @@ def test_the_papers_histogram_blob_finder_tracks_end_to_end():
     tracks, truth, _ = run_scene("static2", 15, tracker_overrides={"blob_method": "histogram", "crossing_share": 0.0})
     errors = per_object_errors(tracks, truth, start=10)  # the far ball settles two frames after its track is confirmed
     assert all((e < 0.1).all() for e in errors.values()), {k: np.round(v, 3) for k, v in errors.items()}  # within the 0.1 m gate
+
+
+@pytest.mark.parametrize(
+    "hsv_max, tracker, frames",
+    [
+        ([179, 55, 255], {}, 15),  # a white ball: its backgrounds start from 15 frames of the recording
+        ([179, 55, 255], {"background_start": 0}, 0),
+        ([179, 55, 255], {"motion": False}, 0),  # no background to start
+        ([175, 255, 255], {}, 0),  # a coloured ball: from the first frame
+    ],
+)
+def test_only_a_white_targets_backgrounds_start_from_frames_spread_over_a_recording(hsv_max, tracker, frames):
+    from scene_helpers import default_rig
+
+    config = config_from_dict(
+        {
+            "targets": [{"name": "b", "hsv_min": [0 if hsv_max[0] == 179 else 140, 0, 150], "hsv_max": hsv_max, "radius": 0.03}],
+            "tracker": tracker,
+        }
+    )
+    assert Tracker(default_rig(), config).background_start == frames
