@@ -16,9 +16,10 @@ import numpy as np
 
 from ..camera import Camera
 from ..config import Target
+from .blob_kernels import faint_pixels, pale_cells, streak_candidates
 from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, faint_pixels, pale_cells, picked_and_halved, streak_candidates
+from .kernels import evidence_maps, picked_and_halved
 from .motion import halved
 
 
