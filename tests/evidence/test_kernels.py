@@ -356,3 +356,23 @@ def test_the_picked_and_halved_frames_are_opencvs_nearest_pick_and_area_halving(
     odd_view = image[:, ::-1]  # not contiguous: OpenCV's two passes
     small, half = every_nth_and_halved(odd_view, 2)
     assert np.array_equal(small, every_nth(odd_view, 2)) and np.array_equal(half, halved(small))
+
+
+def test_the_range_mask_is_target_masks_inrange_and_threshold():
+    """kernels.range_mask (colour.camera_masks' masks) against colour.target_mask (OpenCV's inRange, OR-ed twice where
+    the hue wraps, and a threshold): hues past 179 too, which a wrapping range's upper half leaves out."""
+    from stereotrack.config import Target
+    from stereotrack.evidence.colour import range_bounds, target_mask
+
+    rng = np.random.default_rng(11)
+    for shape in ((121, 163, 3), (2, 5, 3)):
+        hsv = rng.integers(0, 256, shape, dtype=np.uint8)
+        for lo, hi in (
+            ((154, 103, 48), (174, 255, 255)),
+            ((170, 60, 40), (10, 250, 220)),
+            ((0, 0, 0), (179, 255, 255)),
+            ((90, 0, 200), (90, 30, 255)),
+        ):
+            target = Target("t", lo, hi, 0.03)
+            mask = evidence_kernels.range_mask(hsv, range_bounds(target))
+            assert mask.dtype == np.uint8 and np.array_equal(mask, target_mask(hsv, target)), (lo, hi)
