@@ -19,7 +19,7 @@ from ..config import Target
 from .blob_kernels import faint_pixels, pale_cells, streak_candidates
 from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, picked_and_halved
+from .kernels import evidence_maps, halved_frame, picked_and_halved
 from .motion import halved
 
 
@@ -210,9 +210,10 @@ def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
 
 def every_nth_and_halved(image: np.ndarray, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """``every_nth(image, scale)`` and that image on the background's grid (motion.halved), in one compiled pass over
-    a BGR frame picked on a coarser grid (kernels.picked_and_halved: the frame is read once, not the small image again)."""
-    if scale > 1 and image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.flags.c_contiguous:
-        return picked_and_halved(image, scale)
+    a BGR frame picked on a coarser grid (kernels.picked_and_halved: the frame is read once, not the small image again);
+    a frame on the evidence grid already is halved by a compiled pass too (kernels.halved_frame)."""
+    if image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.flags.c_contiguous:
+        return picked_and_halved(image, scale) if scale > 1 else (image, halved_frame(image))
     small = every_nth(image, scale)
     return small, halved(small)
 

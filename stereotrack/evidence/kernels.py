@@ -39,12 +39,30 @@ def picked_and_halved(image, scale):
             for x in range(w):
                 row[3 * x], row[3 * x + 1], row[3 * x + 2] = src[3 * scale * x], src[3 * scale * x + 1], src[3 * scale * x + 2]
         if y % 2 == 1 and y // 2 < hh:
-            a, out = picked[y - 1], halves[y // 2]
-            for x in range(hw):  # the channels spelled out: a loop over them is not vectorised
-                out[3 * x] = _mean4(a[6 * x], a[6 * x + 3], row[6 * x], row[6 * x + 3])
-                out[3 * x + 1] = _mean4(a[6 * x + 1], a[6 * x + 4], row[6 * x + 1], row[6 * x + 4])
-                out[3 * x + 2] = _mean4(a[6 * x + 2], a[6 * x + 5], row[6 * x + 2], row[6 * x + 5])
+            _halved_row(picked[y - 1], row, halves[y // 2], hw)
     return small, half
+
+
+@kernel
+def halved_frame(image):
+    """A BGR image (C-contiguous) on the background's grid, as picked_and_halved halves (motion.halved: OpenCV's
+    INTER_AREA): for a frame on the evidence grid already (evidence_scale 1, frames under 1280 wide), in a quarter of
+    cv2.resize's time on a 640 x 480 frame."""
+    hh, hw = image.shape[0] // 2, image.shape[1] // 2
+    half = np.empty((hh, hw, 3), np.uint8)
+    halves, frame = half.reshape(hh, 3 * hw), image.reshape(image.shape[0], 3 * image.shape[1])
+    for y in range(hh):
+        _halved_row(frame[2 * y], frame[2 * y + 1], halves[y], hw)
+    return half
+
+
+@kernel(inline="always")
+def _halved_row(a, b, out, hw):
+    """Row ``out`` (flat BGR bytes, ``hw`` pixels) of the 2 x 2 means of rows ``a`` and ``b`` (flat BGR bytes)."""
+    for x in range(hw):  # the channels spelled out: a loop over them is not vectorised
+        out[3 * x] = _mean4(a[6 * x], a[6 * x + 3], b[6 * x], b[6 * x + 3])
+        out[3 * x + 1] = _mean4(a[6 * x + 1], a[6 * x + 4], b[6 * x + 1], b[6 * x + 4])
+        out[3 * x + 2] = _mean4(a[6 * x + 2], a[6 * x + 5], b[6 * x + 2], b[6 * x + 5])
 
 
 @kernel(inline="always")

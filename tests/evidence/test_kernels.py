@@ -358,6 +358,20 @@ def test_the_picked_and_halved_frames_are_opencvs_nearest_pick_and_area_halving(
     assert np.array_equal(small, every_nth(odd_view, 2)) and np.array_equal(half, halved(small))
 
 
+def test_a_frame_on_the_evidence_grid_is_halved_as_opencvs_area_halving():
+    """kernels.halved_frame (every_nth_and_halved at scale 1: frames under 1280 wide) against motion.halved (OpenCV's
+    INTER_AREA), odd sizes' last row and column left out; the frame itself is the evidence grid's, not a copy."""
+    from stereotrack.evidence.gather import every_nth_and_halved
+    from stereotrack.evidence.motion import halved
+
+    rng = np.random.default_rng(19)
+    for h, w in ((480, 640), (481, 643), (3, 5), (2, 2)):
+        image = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        assert np.array_equal(evidence_kernels.halved_frame(image), halved(image)), (h, w)
+        small, half = every_nth_and_halved(image, 1)
+        assert small is image and np.array_equal(half, halved(image))
+
+
 def test_the_range_mask_is_target_masks_inrange_and_threshold():
     """kernels.range_mask (colour.camera_masks' masks) against colour.target_mask (OpenCV's inRange, OR-ed twice where
     the hue wraps, and a threshold): hues past 179 too, which a wrapping range's upper half leaves out."""
