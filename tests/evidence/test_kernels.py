@@ -390,3 +390,19 @@ def test_the_range_mask_is_target_masks_inrange_and_threshold():
             target = Target("t", lo, hi, 0.03)
             mask = evidence_kernels.range_mask(hsv, range_bounds(target))
             assert mask.dtype == np.uint8 and np.array_equal(mask, target_mask(hsv, target)), (lo, hi)
+
+
+def test_the_colour_table_is_numpys_float32_ratio():
+    """kernels.colour_table (ColourModel.table) against its numpy formula on float32 histograms: ratios at every
+    rounding, empty bins (0 / 1e-12), a background weighed more or less than the ball."""
+    from stereotrack.evidence.colour_model import H_BINS, S_BINS
+
+    rng = np.random.default_rng(12)
+    for odds in (1.0, 0.25, 7.3, 1.0 + 4.0 * (1.0 - 0.95**17)):
+        for _ in range(20):
+            ball = (rng.random((H_BINS, S_BINS)) ** 4).astype(np.float32)
+            background = (rng.random((H_BINS, S_BINS)) ** 4).astype(np.float32)
+            ball[rng.random(ball.shape) < 0.3], background[rng.random(ball.shape) < 0.3] = 0, 0
+            ball, background = ball / ball.sum(), background / background.sum()
+            expected = np.clip(np.rint(255.0 * (ball / np.maximum(ball + odds * background, 1e-12))), 0, 255).astype(np.uint8)
+            assert np.array_equal(evidence_kernels.colour_table(ball, background, odds), expected), odds
