@@ -288,6 +288,8 @@ def streak_candidates(mask, mask_w, rows, in_range, range_w, before, before_w, c
         y, y_end = scale * cy, min(scale * cy + scale, h)
         if rows.shape[0] and not rows[y]:
             continue
+        if w % 8 == 0 and not _any_seed(mask_w, range_w, before_w, y, y_end, faint):
+            continue  # (most rows: a third of the time its word by word look took)
         for x_from in range(0, w, 8):  # most runs of 8 pixels hold none out of both: skipped (a short last one is read)
             k, word = x_from // 8, np.uint64(1) if x_from + 8 > w else np.uint64(0)
             for yy in range(y, y_end):
@@ -328,6 +330,21 @@ def streak_candidates(mask, mask_w, rows, in_range, range_w, before, before_w, c
                 if paler / max(count, 1) > 0.5 and paler >= least and (not faint or (known <= known_share * count and fresh_enough)):
                     return True
     return False
+
+
+@kernel(inline="always")
+def _any_seed(mask_w, range_w, before_w, y, y_end, faint):
+    """Does any word of rows y .. y_end - 1 hold a pixel of the mask out of the range (and, ``faint``, out of
+    ``before``)? One loop without branches over the rows' words, which the compiler vectorises."""
+    found = np.uint64(0)
+    for yy in range(y, y_end):
+        if faint:
+            for k in range(mask_w.shape[1]):
+                found |= mask_w[yy, k] & ~range_w[yy, k] & ~before_w[yy, k]
+        else:
+            for k in range(mask_w.shape[1]):
+                found |= mask_w[yy, k] & ~range_w[yy, k]
+    return found != 0
 
 
 @kernel(inline="always")

@@ -307,3 +307,24 @@ def test_a_moving_balls_pale_rim_is_not_labelled_and_a_pale_streak_still_is(monk
     assert streak.moving[243, 218] == 1 and labelled
     labelled.clear()
     assert _faint_view(0.09).moving.sum() > 0 and labelled
+
+
+def test_a_row_pair_is_passed_over_only_when_none_of_its_words_holds_a_seed():
+    """streak_candidates passes over a pair of rows at once when no word of either holds a pixel of the map out of the
+    range (and out of the faint pass's ``before``): a blob mostly pale whose only pale pixels lie in the second row of a
+    pair, the last two words of a width that is a whole number of words, is still found (as labelling finds it)."""
+    from stereotrack.evidence.gather import _could_keep, _nearest
+
+    for w in (64, 72):
+        h = 40
+        mask, in_range = np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint8)
+        mask[16, w - 12 : w - 4 : 2] = in_range[16, w - 12 : w - 4 : 2] = 1  # the cells' corners, in range
+        mask[17, w - 12 : w - 4] = 1  # under them, pale: 8 of the blob's 12 pixels
+        assert _could_keep(mask, in_range, 6, None) is True
+        assert _candidates_by_labelling(mask, np.zeros(0, np.uint8), in_range, None, None, 6, 0)
+        cells = np.full(((h + 1) // 2, (w + 1) // 2), 2, np.uint8)
+        marks = (cells, _nearest(cells.shape[0], h), _nearest(cells.shape[1], w))
+        before = np.zeros((h, w), np.uint8)
+        before[17, w - 6 : w - 4] = 1
+        expected = _candidates_by_labelling(mask, np.zeros(0, np.uint8), in_range, before, marks, 6, 0)
+        assert _could_keep(mask, in_range, 6, None, before, marks, 0) == expected
