@@ -99,7 +99,7 @@ class CameraEvidence:
         ball: tuple[float, float, float] | None = None,
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
-        background_hsv: np.ndarray | None = None,
+        background: np.ndarray | None = None,
         motion_range: Target | None = None,
         streak_range: Target | None = None,
         faint: Faint | None = None,
@@ -112,8 +112,8 @@ class CameraEvidence:
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
         kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
-        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
-        in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
+        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the
+        ``background`` (BGR, on the foreground's grid: motion.BackgroundModel.behind) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move;
         with ``things`` (colour_model.ColourModel.moving_things: the colours of things of the room in range, a hand's), a
         pixel of such a colour less likely the ball's than the room's moves only where it replaced a colour of
@@ -152,7 +152,7 @@ class CameraEvidence:
                 soft if soft is not None else _NO_TABLE,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
-                background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
+                background if background is not None and foreground is not None else _NO_HSV,
                 things if things is not None else _NO_TABLE,
             )
             if colour_table is not None:

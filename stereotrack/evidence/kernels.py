@@ -113,7 +113,8 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
       ``motion_range`` (HSV bounds h0, s0, v0, h1, s1, v1 and 1 where the hue wraps around red, as
       colour.target_mask reads a range; empty: the range) the pixels of ``hsv`` in it instead of the range, read
       only where the foreground is set (a whole-image mask of it cost more than the rest of this pass); with the table and the background
-      in HSV (``behind``, on the foreground's grid; empty: none), a pixel in range moves only where it is at
+      (``behind``, BGR on the foreground's grid, its hue and saturation read as OpenCV converts it, _hue_sat, at the
+      cells read only: a whole-grid conversion cost more; empty: none), a pixel in range moves only where it is at
       least as likely the ball's colour as what the background held there (where a ball was and a wall of its
       hue is now, the wall moved in no sense); with ``things`` too (per bin as the table, 1: a colour of a thing
       of the room, a hand's; empty: none), a pixel of such a colour out of the mask (p <= 127) moves only where
@@ -146,13 +147,29 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
                 if moves and own_motion_range:
                     moves = _in_bounds(hsv[y, x, 0], hsv[y, x, 1], hsv[y, x, 2], motion_range)
                 if moves and use_behind and inside:
-                    was = table[behind[fy, fx, 0] // HUE_STEP, behind[fy, fx, 1] // SAT_STEP]
+                    hue, sat = _hue_sat(behind[fy, fx, 0], behind[fy, fx, 1], behind[fy, fx, 2])
+                    was = table[hue // HUE_STEP, sat // SAT_STEP]
                     thing = use_things and things[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP] != 0
                     moves = p >= was and (p > 127 or was > 0 or not thing)
                 moving[y, x] = 1 if moves else 0
                 if moves and not inside:
                     pale += 1
     return pale
+
+
+@kernel(inline="always")
+def _hue_sat(b, g, r):
+    """Hue (0..179) and saturation of one BGR uint8 pixel exactly as cv2.cvtColor's 8-bit COLOR_BGR2HSV gives them
+    (its integer formula: 12-bit fixed point, the divisions by V and by 6 x (V - min) rounded as its tables round them,
+    here reproduced by float32 divisions: the same on all 2^24 colours, tests/evidence/test_kernels.py)."""
+    b, g, r = np.int32(b), np.int32(g), np.int32(r)
+    v = max(b, g, r)
+    diff = v - min(b, g, r)
+    v_is_r, v_is_g = -np.int32(v == r), -np.int32(v == g)  # all bits set where true
+    sat = (diff * np.int32(np.rint(np.float32(255 << 12) / np.float32(max(v, 1)))) + np.int32(1 << 11)) >> 12
+    hue = (v_is_r & (g - b)) + (~v_is_r & ((v_is_g & (b - r + 2 * diff)) + (~v_is_g & (r - g + 4 * diff))))
+    hue = (hue * np.int32(np.rint(np.float32(180 << 12) / (np.float32(6.0) * np.float32(max(diff, 1))))) + np.int32(1 << 11)) >> 12
+    return hue + (np.int32(180) if hue < 0 else np.int32(0)), sat
 
 
 @kernel(inline="always")

@@ -209,7 +209,8 @@ def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
     cv2.circle(foreground, (100, 120), 8, 1, -1)
     cv2.circle(foreground, (200, 120), 8, 1, -1)
     in_range = np.ones((480, 640), np.uint8)
-    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind)
+    background = cv2.cvtColor(behind, cv2.COLOR_HSV2BGR)  # (its colours' bins survive the round trip)
+    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background=background)
     assert ev.moving[240, 400] == 1 and ev.moving[235:246, 395:406].all()  # the ball moved in
     assert ev.moving[230:251, 190:211].sum() == 0  # its old place: the wall, no ghost
     plain = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv)
@@ -250,9 +251,10 @@ def test_a_hand_of_the_range_moving_before_a_wall_out_of_it_is_no_moving_evidenc
     in_range[:, 320:] = 1
     cv2.circle(in_range, (200, 240), 15, 1, -1)
     cv2.circle(in_range, (100, 120), 15, 1, -1)
+    background = cv2.cvtColor(behind, cv2.COLOR_HSV2BGR)  # (its colours' bins survive the round trip)
     for known, before_wall in ((things, 0), (None, 1)):
         ev = CameraEvidence.from_mask(
-            camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind, things=known
+            camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background=background, things=known
         )
         assert (ev.moving[235:246, 195:206] == before_wall).all()
         assert ev.moving[235:246, 445:456].all()  # p 40 >= 30: it replaced a colour of the range
@@ -406,3 +408,22 @@ def test_the_colour_table_is_numpys_float32_ratio():
             ball, background = ball / ball.sum(), background / background.sum()
             expected = np.clip(np.rint(255.0 * (ball / np.maximum(ball + odds * background, 1e-12))), 0, 255).astype(np.uint8)
             assert np.array_equal(evidence_kernels.colour_table(ball, background, odds), expected), odds
+
+
+def test_the_backgrounds_hue_and_saturation_are_opencvs_on_every_colour():
+    """kernels._hue_sat (evidence_maps reads the background's colour where something moves, not a converted copy of
+    it) against cv2.cvtColor's 8-bit BGR -> HSV on all 2^24 colours."""
+    from numba import njit
+
+    @njit
+    def hue_sat(image):
+        out = np.empty((image.shape[0], image.shape[1], 2), np.uint8)
+        for y in range(image.shape[0]):
+            for x in range(image.shape[1]):
+                hue, sat = evidence_kernels._hue_sat(image[y, x, 0], image[y, x, 1], image[y, x, 2])
+                out[y, x, 0], out[y, x, 1] = hue, sat
+        return out
+
+    colours = np.arange(1 << 24, dtype=np.uint32)
+    image = np.stack([colours & 255, (colours >> 8) & 255, colours >> 16], axis=-1).astype(np.uint8).reshape(4096, 4096, 3)
+    assert np.array_equal(hue_sat(image), cv2.cvtColor(image, cv2.COLOR_BGR2HSV)[..., :2])
