@@ -45,7 +45,7 @@ NO_OTHERS = np.zeros((0, 7), np.int64)  # no other coloured target
 class Faint:
     """A camera's faint changes (motion.py's ``faint`` map), the frame and the background on that grid (BGR), and
     the target's range (colour.range_bounds): where a streak too pale for the foreground's threshold is looked for;
-    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (kernels.pale_cells)."""
+    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (blob_kernels.pale_cells)."""
 
     cells: np.ndarray
     image: np.ndarray
@@ -122,7 +122,7 @@ class CameraEvidence:
         With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
         ball); with ``faint`` changes too (motion.py: above a lower threshold, on the foreground's grid), so do the
-        pale pixels of faint streaks (a far fast ball's, too thin and pale to pass the threshold; kernels.pale_cells).
+        pale pixels of faint streaks (a far fast ball's, too thin and pale to pass the threshold; blob_kernels.pale_cells).
         The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
@@ -253,7 +253,7 @@ FAINT_MIN_CELLS = 6  # a faint streak keeps at least this many of the background
 
 
 def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, rows: np.ndarray, least: int) -> tuple | None:
-    """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, read at the image's size
+    """The pixels that could be a faint streak's (blob_kernels.pale_cells on the background's grid, read at the image's size
     as the foreground is) with the ``moving`` map's, the rows that may hold any (``rows`` and theirs), and the cells'
     marks there (2: changed from the frame before) with which cell each pixel's row and column reads; None when too few
     of them are out of the range and the moving map for a streak to keep ``least`` pale pixels (_kept_streaks: a blob
@@ -300,7 +300,7 @@ def words(image: np.ndarray) -> np.ndarray:
 
 
 def _could_keep(moving, in_range, min_blob_area: int, rows, before=None, marks=None, least: int = 0) -> bool:
-    """Whether some blob of ``moving`` passes every test of _kept_streaks but its shape's (kernels.streak_candidates,
+    """Whether some blob of ``moving`` passes every test of _kept_streaks but its shape's (blob_kernels.streak_candidates,
     without labelling it): False, and _kept_streaks would keep nothing. ``before`` is the faint pass's moving map
     before the faint pixels (``known`` there is it or the range), ``marks`` and ``least`` as _kept_streaks takes them."""
     cells, cell_rows, cell_cols = marks if marks is not None else (_NO_TABLE, _NO_INDEX, _NO_INDEX)
