@@ -49,9 +49,9 @@ def kernel(fn=None, **options):
 
 
 def kernel_files() -> list[Path]:
-    """This file and every stage's ``kernels.py``."""
+    """This file and every stage's ``kernels.py`` (and ``*_kernels.py``: evidence/blob_kernels.py)."""
     here = Path(__file__).resolve()
-    return [here, *sorted(here.parent.glob("*/kernels.py"))]
+    return [here, *sorted(here.parent.glob("*/*kernels.py"))]
 
 
 def _renew_stale_caches() -> None:

@@ -17,13 +17,20 @@ PACKAGE = Path(stereotrack.__file__).resolve().parent
 
 def test_every_stage_has_its_kernels_beside_it_and_registered():
     assert {f.parent.name for f in kernel_files()} == {"stereotrack", "evidence", "particles", "objects", "tracks"}
+    import stereotrack.evidence.blob_kernels
     import stereotrack.evidence.kernels
     import stereotrack.objects.kernels
     import stereotrack.particles.kernels
     import stereotrack.tracks.kernels  # noqa: F401
 
     homes = {k.py_func.__module__ for k in KERNELS}
-    assert homes >= {"stereotrack.kernels", "stereotrack.evidence.kernels", "stereotrack.objects.kernels", "stereotrack.tracks.kernels"}
+    assert homes >= {
+        "stereotrack.kernels",
+        "stereotrack.evidence.kernels",
+        "stereotrack.evidence.blob_kernels",
+        "stereotrack.objects.kernels",
+        "stereotrack.tracks.kernels",
+    }
 
 
 def _import_kernels(copy: Path) -> None:
@@ -35,7 +42,8 @@ def _import_kernels(copy: Path) -> None:
 def test_a_changed_kernel_file_renews_every_kernel_files_stamp(tmp_path):
     copy = tmp_path / "pkg"
     shutil.copytree(PACKAGE, copy / "stereotrack", ignore=shutil.ignore_patterns("__pycache__", "data"))
-    files = [copy / "stereotrack" / "kernels.py", *sorted((copy / "stereotrack").glob("*/kernels.py"))]
+    files = [copy / "stereotrack" / "kernels.py", *sorted((copy / "stereotrack").glob("*/*kernels.py"))]
+    assert copy / "stereotrack" / "evidence" / "blob_kernels.py" in files
     _import_kernels(copy)  # first import: records the sources' digest
     past = 1_000_000_000.0
     for f in files:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .kernels import component_measures, subsampled
+from .blob_kernels import component_measures, subsampled
 
 
 @dataclass(frozen=True, eq=False)

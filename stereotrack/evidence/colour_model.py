@@ -28,7 +28,7 @@ import yaml
 from ..config import Target
 from ..errors import StereotrackError
 from ..files import load_yaml, write_text_atomic
-from .kernels import HUE_STEP, SAT_STEP, hs_histograms
+from .kernels import HUE_STEP, SAT_STEP, colour_table, hs_histograms
 
 H_BINS, S_BINS = 180 // HUE_STEP, 256 // SAT_STEP  # 45 x 32: a pixel's bin is (hue // HUE_STEP, saturation // SAT_STEP)
 _RANGES = [0, 180, 0, 256]
@@ -128,8 +128,7 @@ class ColourModel:
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         odds = 1.0 + (self.odds - 1.0) * (1.0 - self.prior)  # the learnt share takes the odds
-        ratio = self.ball / np.maximum(self.ball + odds * self.background, 1e-12)
-        return np.clip(np.rint(255.0 * ratio), 0, 255).astype(np.uint8)
+        return colour_table(self.ball, self.background, odds)  # both float32 (_normalised and the running averages)
 
     def moving_things(self) -> np.ndarray | None:
         """The colours of things of the room that move, as learnt so far (H_BINS x S_BINS uint8, 1: more than MOVED of

@@ -16,9 +16,10 @@ import numpy as np
 
 from ..camera import Camera
 from ..config import Target
+from .blob_kernels import faint_pixels, pale_cells, streak_candidates
 from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
-from .kernels import evidence_maps, faint_pixels, pale_cells, picked_and_halved, streak_candidates
+from .kernels import evidence_maps, halved_frame, picked_and_halved
 from .motion import halved
 
 
@@ -44,7 +45,7 @@ NO_OTHERS = np.zeros((0, 7), np.int64)  # no other coloured target
 class Faint:
     """A camera's faint changes (motion.py's ``faint`` map), the frame and the background on that grid (BGR), and
     the target's range (colour.range_bounds): where a streak too pale for the foreground's threshold is looked for;
-    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (kernels.pale_cells)."""
+    ``others``: the other coloured targets' ranges (K x 7), whose balls' edges are no streak (blob_kernels.pale_cells)."""
 
     cells: np.ndarray
     image: np.ndarray
@@ -98,7 +99,7 @@ class CameraEvidence:
         ball: tuple[float, float, float] | None = None,
         colour_table: np.ndarray | None = None,
         hsv: np.ndarray | None = None,
-        background_hsv: np.ndarray | None = None,
+        background: np.ndarray | None = None,
         motion_range: Target | None = None,
         streak_range: Target | None = None,
         faint: Faint | None = None,
@@ -111,8 +112,8 @@ class CameraEvidence:
         (p(ball | colour) x 255 per bin, ColourModel.table) and the frame's ``hsv``, the mask keeps the pixels
         likelier on the ball than on the background, and a soft map (the probability inside the range) is
         kept too; the moving map still takes the whole range (a ball moving in front of its own colour), or
-        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the background
-        in HSV (``background_hsv``, on the foreground's grid) only the pixels in range at least as likely the
+        the pixels of ``hsv`` in ``motion_range`` where given (colour.motion_range: a white ball's shaded side); with the
+        ``background`` (BGR, on the foreground's grid: motion.BackgroundModel.behind) only the pixels in range at least as likely the
         ball's as what they replaced: where a ball was in the background, its hue's wall behind it does not move;
         with ``things`` (colour_model.ColourModel.moving_things: the colours of things of the room in range, a hand's), a
         pixel of such a colour less likely the ball's than the room's moves only where it replaced a colour of
@@ -121,7 +122,7 @@ class CameraEvidence:
         With a ``streak_range`` (colour.streak_range, read from ``hsv``) and no motion range, the moving map takes it too, but its
         pixels out of the range stay only in moving blobs shaped like a streak (a fast ball's, paler than the
         ball); with ``faint`` changes too (motion.py: above a lower threshold, on the foreground's grid), so do the
-        pale pixels of faint streaks (a far fast ball's, too thin and pale to pass the threshold; kernels.pale_cells).
+        pale pixels of faint streaks (a far fast ball's, too thin and pale to pass the threshold; blob_kernels.pale_cells).
         The blobs are those of the mask and the moving map together: what the likelihood counts is what
         explain-away looks up.
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
@@ -151,7 +152,7 @@ class CameraEvidence:
                 soft if soft is not None else _NO_TABLE,
                 mask if colour_table is not None else _NO_TABLE,
                 moving if moving is not None else _NO_TABLE,
-                background_hsv if background_hsv is not None and foreground is not None else _NO_HSV,
+                background if background is not None and foreground is not None else _NO_HSV,
                 things if things is not None else _NO_TABLE,
             )
             if colour_table is not None:
@@ -209,9 +210,10 @@ def every_nth(image: np.ndarray, scale: int) -> np.ndarray:
 
 def every_nth_and_halved(image: np.ndarray, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """``every_nth(image, scale)`` and that image on the background's grid (motion.halved), in one compiled pass over
-    a BGR frame picked on a coarser grid (kernels.picked_and_halved: the frame is read once, not the small image again)."""
-    if scale > 1 and image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.flags.c_contiguous:
-        return picked_and_halved(image, scale)
+    a BGR frame picked on a coarser grid (kernels.picked_and_halved: the frame is read once, not the small image again);
+    a frame on the evidence grid already is halved by a compiled pass too (kernels.halved_frame)."""
+    if image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8 and image.flags.c_contiguous:
+        return picked_and_halved(image, scale) if scale > 1 else (image, halved_frame(image))
     small = every_nth(image, scale)
     return small, halved(small)
 
@@ -251,7 +253,7 @@ FAINT_MIN_CELLS = 6  # a faint streak keeps at least this many of the background
 
 
 def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, rows: np.ndarray, least: int) -> tuple | None:
-    """The pixels that could be a faint streak's (kernels.pale_cells on the background's grid, read at the image's size
+    """The pixels that could be a faint streak's (blob_kernels.pale_cells on the background's grid, read at the image's size
     as the foreground is) with the ``moving`` map's, the rows that may hold any (``rows`` and theirs), and the cells'
     marks there (2: changed from the frame before) with which cell each pixel's row and column reads; None when too few
     of them are out of the range and the moving map for a streak to keep ``least`` pale pixels (_kept_streaks: a blob
@@ -298,7 +300,7 @@ def words(image: np.ndarray) -> np.ndarray:
 
 
 def _could_keep(moving, in_range, min_blob_area: int, rows, before=None, marks=None, least: int = 0) -> bool:
-    """Whether some blob of ``moving`` passes every test of _kept_streaks but its shape's (kernels.streak_candidates,
+    """Whether some blob of ``moving`` passes every test of _kept_streaks but its shape's (blob_kernels.streak_candidates,
     without labelling it): False, and _kept_streaks would keep nothing. ``before`` is the faint pass's moving map
     before the faint pixels (``known`` there is it or the range), ``marks`` and ``least`` as _kept_streaks takes them."""
     cells, cell_rows, cell_cols = marks if marks is not None else (_NO_TABLE, _NO_INDEX, _NO_INDEX)

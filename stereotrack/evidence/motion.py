@@ -208,7 +208,6 @@ class BackgroundModel:
         self._background: np.ndarray | None = None  # float32, half size
         self._frames = 0  # frames learnt so far (the warm-up's running mean)
         self.behind: np.ndarray | None = None  # the background (uint8 BGR, its grid) as it was before the last frame learnt
-        self._behind_hsv: np.ndarray | None = None  # its HSV, made when first asked
         self._previous: np.ndarray | None = None  # uint8, the last frame at that size (after its gain)
         self._calm: np.ndarray | None = None  # uint8, frames in a row each cell has not changed (at most 255)
 
@@ -260,7 +259,6 @@ class BackgroundModel:
         moving = np.empty(learn.shape, np.uint8)
         if self.behind is None:
             self.behind = np.empty(self._background.shape, np.uint8)
-        self._behind_hsv = None
         gain = self._gain(image)
         rate = max(self.rate, 1.0 / (self._frames + 1))  # a running mean at first (warm-up), as MOG2 does
         self.faint = np.empty(learn.shape, np.uint8) if self.keep_faint else None
@@ -283,13 +281,6 @@ class BackgroundModel:
         if calm_moving >= MIN_GHOST_CELLS:
             self._absorb_ghosts(moving, learn)
         return moving
-
-    @property
-    def hsv(self) -> np.ndarray | None:
-        """The background in HSV (uint8, its grid) as it was before the last frame learnt: what the moving pixels replaced."""
-        if self._behind_hsv is None and self.behind is not None:
-            self._behind_hsv = cv2.cvtColor(self.behind, cv2.COLOR_BGR2HSV)
-        return self._behind_hsv
 
     def _ghosts(self, small: np.ndarray | None, balls: TrackedBalls, uv: np.ndarray, front: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Per ball (``uv``, ``r``: its centre and apparent radius on the evidence grid), whether its disc is a ghost

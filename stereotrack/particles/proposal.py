@@ -100,9 +100,10 @@ def ray_crossings(views: Sequence[CameraEvidence], radius: float, d_min: float, 
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
-def _holders(camera, centres: np.ndarray, radii: np.ndarray, mine: TrackedBalls) -> np.ndarray:
-    """Per blob (``centres``, ``radii``): how many of the tracked balls ``mine`` project into it (HELD_MIN_PX)."""
-    uv, ok = camera.project(mine.centres)
+def _holders(projected: tuple[np.ndarray, np.ndarray], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Per blob (``centres``, ``radii``): how many of the tracked balls project into it (HELD_MIN_PX); ``projected``:
+    their pixels and in-front flags in the blobs' camera (Camera.project), made once a frame for both calls."""
+    uv, ok = projected
     d = np.linalg.norm(uv[:, None] - centres[None], axis=2)
     return (ok[:, None] & (d < np.maximum(radii[None], HELD_MIN_PX))).sum(axis=0)
 
@@ -158,9 +159,10 @@ class RayProposal:
         # How many tracked balls of this colour project into each blob: a held blob's ball has its particles (no
         # crossings there), and two balls overlapping look like one ball's streak (their size is the larger side's,
         # not the streak's width).
-        holders = None
+        holders = projected = None
         if mine is not None and len(mine):
-            holders = [_holders(v.camera, b.centres, b.radii, mine) for v, b in zip(views, seeds)]
+            projected = [v.camera.project(mine.centres) for v in views]
+            holders = [_holders(p, b.centres, b.radii) for p, b in zip(projected, seeds)]
         for j, (v, b) in enumerate(zip(views, seeds)):
             if len(b) == 0:
                 continue
@@ -185,9 +187,9 @@ class RayProposal:
             # into are left out (their ball has its particles; a partly hidden one's shifted centroid
             # would cross at the wrong depth).
             held = None
-            if mine is not None and len(mine):
+            if projected is not None:
                 # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
-                held = [_holders(v.camera, v.blobs.centres, v.blobs.radii, mine) > 0 for v in views]
+                held = [_holders(p, v.blobs.centres, v.blobs.radii) > 0 for p, v in zip(projected, views)]
             if self.moving_first and all(v.moving_integral is not None for v in views):
                 # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                 still = [_still(v) for v in views]

@@ -224,7 +224,7 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 colour[t.name][0],
                 cm.hsv,
-                self.backgrounds[j].hsv if self.backgrounds and self.colour_models else None,  # read with a colour table only
+                self.backgrounds[j].behind if self.backgrounds and self.colour_models else None,  # read with a colour table only
                 *self.moving_ranges[t.name],
                 self._faint(t, j, small_halved),
                 colour[t.name][1],

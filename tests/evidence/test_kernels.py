@@ -1,68 +1,9 @@
-"""The evidence stage's compiled kernels against OpenCV."""
+"""The evidence stage's compiled map kernels (kernels.py) against OpenCV and numpy; the blob kernels: test_blob_kernels.py."""
 
 import cv2
 import numpy as np
 
 from stereotrack.evidence import kernels as evidence_kernels
-from stereotrack.evidence.blobs import STREAK_ELONGATION, STREAK_FILL, streaks
-
-
-def test_component_boxes_and_mask_moments_match_opencv():
-    rng = np.random.default_rng(3)
-    mask = (cv2.GaussianBlur(rng.random((120, 160)), (0, 0), 4) > 0.52).astype(np.uint8)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    assert n > 3
-    area, boxes = evidence_kernels.component_boxes(labels, n)
-    assert np.array_equal(area, stats[1:, cv2.CC_STAT_AREA])
-    assert np.array_equal(boxes[:, :2], stats[1:, :2]) and np.array_equal(boxes[:, 2:] - boxes[:, :2], stats[1:, 2:4])
-    count, centre, size, second = evidence_kernels.mask_moments(mask, boxes, 1)  # scale 1: each box grown by one pixel
-    for i, (x0, y0, x1, y1) in enumerate(boxes):
-        x0, y0, x1, y1 = max(x0 - 1, 0), max(y0 - 1, 0), min(x1 + 1, 160), min(y1 + 1, 120)
-        m = cv2.moments(mask[y0:y1, x0:x1], binaryImage=True)
-        assert count[i] == m["m00"]
-        assert np.allclose(centre[i], (x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]))
-        assert np.array_equal(size[i], cv2.boundingRect(mask[y0:y1, x0:x1])[2:])
-        assert np.allclose(second[i], (m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]))
-
-
-def test_component_measures_keep_the_blobs_and_measure_them_as_opencv_does():
-    """One call: the components at least min_area (label cells x scale^2) are blobs, numbered in label order, their boxes
-    moved by the label box's corner, measured on the full mask; semi-axes of the filled ellipse of those moments."""
-    rng = np.random.default_rng(5)
-    mask = (cv2.GaussianBlur(rng.random((240, 320)), (0, 0), 4) > 0.53).astype(np.uint8)
-    small = np.ascontiguousarray(mask[::2, ::2])
-    x0, y0 = 10, 6  # labelled inside a box of the subsampled mask
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(small[y0:, x0:], connectivity=8)
-    label_blob, boxes, count, centre, size, second, axes, radii, swept = evidence_kernels.component_measures(
-        mask, labels, n, x0, y0, 2, 24, small.shape[1], small.shape[0], STREAK_ELONGATION, STREAK_FILL * np.pi
-    )
-    kept = stats[1:, cv2.CC_STAT_AREA] * 4 >= 24
-    assert 3 < kept.sum() < n - 1  # some specks left out
-    assert np.array_equal(label_blob, np.r_[-1, np.where(kept, np.cumsum(kept) - 1, -1)])
-    assert np.array_equal(boxes[:, :2], stats[1:, :2][kept] + (x0, y0))
-    assert np.array_equal(boxes[:, 2:] - boxes[:, :2], stats[1:, 2:4][kept])
-    c, ce, si, se = evidence_kernels.mask_moments(mask, boxes, 2)
-    assert np.array_equal(count, c) and np.array_equal(centre, ce) and np.array_equal(size, si) and np.array_equal(second, se)
-    for (xx, yy, xy), (a, b) in zip(second, axes):  # a filled ellipse of semi-axes a, b: variances a^2 / 4, b^2 / 4
-        var = np.linalg.eigvalsh([[xx, xy], [xy, yy]])
-        assert np.allclose((a * a / 4, b * b / 4), var[::-1], atol=1e-9)
-    assert np.array_equal(radii, 0.5 * size.max(axis=1))
-    # shaped like a streak (blobs.streaks) with its box away from the label grid's edges
-    inside = (boxes[:, 0] > 0) & (boxes[:, 1] > 0) & (boxes[:, 2] < small.shape[1]) & (boxes[:, 3] < small.shape[0])
-    assert np.array_equal(swept, streaks(count, axes) & inside)
-
-
-def test_component_measures_tell_the_streaks_away_from_the_edge():
-    lines = np.zeros((100, 120), np.uint8)  # a streak inside, one touching the left edge, a disc
-    cv2.line(lines, (20, 20), (80, 40), 1, 7)
-    cv2.line(lines, (0, 80), (50, 80), 1, 7)
-    cv2.circle(lines, (95, 75), 8, 1, -1)
-    n, labels = cv2.connectedComponents(np.ascontiguousarray(lines[::2, ::2]), connectivity=8)
-    label_blob, *_, swept = evidence_kernels.component_measures(
-        lines, labels, n, 0, 0, 2, 6, 60, 50, STREAK_ELONGATION, STREAK_FILL * np.pi
-    )
-    first = label_blob[labels[15, 25]], label_blob[labels[40, 10]], label_blob[labels[37, 47]]  # the inner streak, the edge one, the disc
-    assert [bool(swept[b]) for b in first] == [True, False, False]
 
 
 def _scene(rng, h=121, w=163):
@@ -268,7 +209,8 @@ def test_where_the_background_held_the_ball_a_wall_of_its_hue_does_not_move():
     cv2.circle(foreground, (100, 120), 8, 1, -1)
     cv2.circle(foreground, (200, 120), 8, 1, -1)
     in_range = np.ones((480, 640), np.uint8)
-    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind)
+    background = cv2.cvtColor(behind, cv2.COLOR_HSV2BGR)  # (its colours' bins survive the round trip)
+    ev = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background=background)
     assert ev.moving[240, 400] == 1 and ev.moving[235:246, 395:406].all()  # the ball moved in
     assert ev.moving[230:251, 190:211].sum() == 0  # its old place: the wall, no ghost
     plain = CameraEvidence.from_mask(camera, in_range, foreground=foreground, colour_table=table, hsv=hsv)
@@ -309,9 +251,10 @@ def test_a_hand_of_the_range_moving_before_a_wall_out_of_it_is_no_moving_evidenc
     in_range[:, 320:] = 1
     cv2.circle(in_range, (200, 240), 15, 1, -1)
     cv2.circle(in_range, (100, 120), 15, 1, -1)
+    background = cv2.cvtColor(behind, cv2.COLOR_HSV2BGR)  # (its colours' bins survive the round trip)
     for known, before_wall in ((things, 0), (None, 1)):
         ev = CameraEvidence.from_mask(
-            camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background_hsv=behind, things=known
+            camera, in_range, foreground=foreground, colour_table=table, hsv=hsv, background=background, things=known
         )
         assert (ev.moving[235:246, 195:206] == before_wall).all()
         assert ev.moving[235:246, 445:456].all()  # p 40 >= 30: it replaced a colour of the range
@@ -378,37 +321,6 @@ def test_still_patches_are_absorbed_as_labelling_every_patch_gives():
         assert trial % 2 or still.any()
 
 
-def test_the_subsampled_mask_is_numpys_strided_copy_and_skips_the_rows_said_empty():
-    rng = np.random.default_rng(16)
-    every = np.zeros(0, np.uint8)
-    for (h, w), scale in (((480, 640), 2), ((121, 163), 2), ((7, 9), 3), ((5, 4), 1)):
-        mask = (rng.random((h, w)) < 0.3).astype(np.uint8)
-        small, labels, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, scale, every)
-        assert np.array_equal(small, mask[::scale, ::scale])
-        ys, xs = np.nonzero(small)
-        assert (x0, y0, x1, y1) == (xs.min() // 2 * 2, ys.min() // 2 * 2, xs.max() + 1, ys.max() + 1)
-        assert labels.shape == small.shape and labels.dtype == np.int32
-        rows = (rng.random(h) < 0.5).astype(np.uint8)  # rows marked 0 are not read: they come out empty
-        masked = mask * rows[:, None]
-        small, _, *box = evidence_kernels.subsampled(mask, scale, rows)
-        assert np.array_equal(small, masked[::scale, ::scale]) and tuple(box) == evidence_kernels.subsampled(masked, scale, every)[2:]
-    empty = evidence_kernels.subsampled(np.zeros((6, 8), np.uint8), 2, every)
-    assert empty[2:] == (0, 0, 0, 0) and not empty[1].any()
-
-
-def test_the_subsampled_masks_label_image_is_zero_outside_the_box_of_its_set_pixels():
-    """What the labeller does not write (blobs._components labels inside the box only) is zero."""
-    for _ in range(3):  # after other label images were freed: no memory that happens to be zero
-        evidence_kernels.subsampled(np.ones((40, 60), np.uint8) * 7, 2, np.zeros(0, np.uint8))[1][:] = -1
-    mask = np.zeros((40, 60), np.uint8)
-    mask[13:21, 26:39] = 1  # subsampled: rows 7-10, columns 13-19; the box starts at even cells (6, 12)
-    small, labels, x0, y0, x1, y1 = evidence_kernels.subsampled(mask, 2, np.zeros(0, np.uint8))
-    assert (x0, y0, x1, y1) == (12, 6, 20, 11)
-    outside = np.ones(labels.shape, bool)
-    outside[y0:y1, x0:x1] = False
-    assert not labels[outside].any()
-
-
 def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     """What the streak check needs to know before it labels anything (gather._streaks_only runs only when some are)."""
     from stereotrack.config import Target
@@ -446,3 +358,72 @@ def test_the_picked_and_halved_frames_are_opencvs_nearest_pick_and_area_halving(
     odd_view = image[:, ::-1]  # not contiguous: OpenCV's two passes
     small, half = every_nth_and_halved(odd_view, 2)
     assert np.array_equal(small, every_nth(odd_view, 2)) and np.array_equal(half, halved(small))
+
+
+def test_a_frame_on_the_evidence_grid_is_halved_as_opencvs_area_halving():
+    """kernels.halved_frame (every_nth_and_halved at scale 1: frames under 1280 wide) against motion.halved (OpenCV's
+    INTER_AREA), odd sizes' last row and column left out; the frame itself is the evidence grid's, not a copy."""
+    from stereotrack.evidence.gather import every_nth_and_halved
+    from stereotrack.evidence.motion import halved
+
+    rng = np.random.default_rng(19)
+    for h, w in ((480, 640), (481, 643), (3, 5), (2, 2)):
+        image = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        assert np.array_equal(evidence_kernels.halved_frame(image), halved(image)), (h, w)
+        small, half = every_nth_and_halved(image, 1)
+        assert small is image and np.array_equal(half, halved(image))
+
+
+def test_the_range_mask_is_target_masks_inrange_and_threshold():
+    """kernels.range_mask (colour.camera_masks' masks) against colour.target_mask (OpenCV's inRange, OR-ed twice where
+    the hue wraps, and a threshold): hues past 179 too, which a wrapping range's upper half leaves out."""
+    from stereotrack.config import Target
+    from stereotrack.evidence.colour import range_bounds, target_mask
+
+    rng = np.random.default_rng(11)
+    for shape in ((121, 163, 3), (2, 5, 3)):
+        hsv = rng.integers(0, 256, shape, dtype=np.uint8)
+        for lo, hi in (
+            ((154, 103, 48), (174, 255, 255)),
+            ((170, 60, 40), (10, 250, 220)),
+            ((0, 0, 0), (179, 255, 255)),
+            ((90, 0, 200), (90, 30, 255)),
+        ):
+            target = Target("t", lo, hi, 0.03)
+            mask = evidence_kernels.range_mask(hsv, range_bounds(target))
+            assert mask.dtype == np.uint8 and np.array_equal(mask, target_mask(hsv, target)), (lo, hi)
+
+
+def test_the_colour_table_is_numpys_float32_ratio():
+    """kernels.colour_table (ColourModel.table) against its numpy formula on float32 histograms: ratios at every
+    rounding, empty bins (0 / 1e-12), a background weighed more or less than the ball."""
+    from stereotrack.evidence.colour_model import H_BINS, S_BINS
+
+    rng = np.random.default_rng(12)
+    for odds in (1.0, 0.25, 7.3, 1.0 + 4.0 * (1.0 - 0.95**17)):
+        for _ in range(20):
+            ball = (rng.random((H_BINS, S_BINS)) ** 4).astype(np.float32)
+            background = (rng.random((H_BINS, S_BINS)) ** 4).astype(np.float32)
+            ball[rng.random(ball.shape) < 0.3], background[rng.random(ball.shape) < 0.3] = 0, 0
+            ball, background = ball / ball.sum(), background / background.sum()
+            expected = np.clip(np.rint(255.0 * (ball / np.maximum(ball + odds * background, 1e-12))), 0, 255).astype(np.uint8)
+            assert np.array_equal(evidence_kernels.colour_table(ball, background, odds), expected), odds
+
+
+def test_the_backgrounds_hue_and_saturation_are_opencvs_on_every_colour():
+    """kernels._hue_sat (evidence_maps reads the background's colour where something moves, not a converted copy of
+    it) against cv2.cvtColor's 8-bit BGR -> HSV on all 2^24 colours."""
+    from numba import njit
+
+    @njit
+    def hue_sat(image):
+        out = np.empty((image.shape[0], image.shape[1], 2), np.uint8)
+        for y in range(image.shape[0]):
+            for x in range(image.shape[1]):
+                hue, sat = evidence_kernels._hue_sat(image[y, x, 0], image[y, x, 1], image[y, x, 2])
+                out[y, x, 0], out[y, x, 1] = hue, sat
+        return out
+
+    colours = np.arange(1 << 24, dtype=np.uint32)
+    image = np.stack([colours & 255, (colours >> 8) & 255, colours >> 16], axis=-1).astype(np.uint8).reshape(4096, 4096, 3)
+    assert np.array_equal(hue_sat(image), cv2.cvtColor(image, cv2.COLOR_BGR2HSV)[..., :2])

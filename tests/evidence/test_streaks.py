@@ -129,7 +129,7 @@ def test_a_faint_cell_whose_change_points_to_another_targets_colour_is_no_streak
     points to orange (tests/pipeline/test_tracker.py's crossing: it pulled the pink ball's blob in the view the orange one
     hid it in). With the orange target's range among the others, only the pink streak's cell stays (marks 2: changed
     from the frame before)."""
-    from stereotrack.evidence.kernels import pale_cells
+    from stereotrack.evidence.blob_kernels import pale_cells
     from stereotrack.simulation.spec import BallSpec, RigSpec, SceneSpec
     from stereotrack.simulation.trajectories import Line
 
@@ -161,7 +161,7 @@ def test_a_faint_change_over_a_wall_of_a_streaks_colour_is_no_streak_by_its_colo
     """A pale pink wall lies in a pink ball's streak range: a faint change there (the ghost of the streak the frame
     before, which the background learnt in part: motion_blur tune seed 15) is of a streak's colour whatever it is. Only
     a cell whose background is not of that colour tells a streak by its colour."""
-    from stereotrack.evidence.kernels import pale_cells
+    from stereotrack.evidence.blob_kernels import pale_cells
     from stereotrack.simulation.spec import BallSpec, RigSpec, SceneSpec
     from stereotrack.simulation.trajectories import Line
 
@@ -197,10 +197,10 @@ def test_a_faint_speck_too_small_for_a_streak_is_not_labelled(monkeypatch):
 
 
 def test_faint_pixels_reads_the_cells_as_the_nearest_neighbour_upscaling_does():
-    """kernels.faint_pixels: the marked cells at the image's size (cv2.resize's INTER_NEAREST), OR the moving map,
+    """blob_kernels.faint_pixels: the marked cells at the image's size (cv2.resize's INTER_NEAREST), OR the moving map,
     and the count of those neither in range nor moving, on grids of whole and odd ratios."""
+    from stereotrack.evidence.blob_kernels import faint_pixels
     from stereotrack.evidence.gather import _nearest
-    from stereotrack.evidence.kernels import faint_pixels
 
     rng = np.random.default_rng(3)
     for (ch, cw), (h, w) in [((240, 320), (480, 640)), ((180, 320), (360, 640)), ((7, 11), (15, 23)), ((5, 9), (5, 9))]:
@@ -246,7 +246,7 @@ def _candidates_by_labelling(mask, rows, in_range, before, marks, min_area, leas
 
 
 def test_the_streak_candidates_are_what_labelling_the_map_finds():
-    """kernels.streak_candidates (gather._could_keep) against OpenCV's components of the subsampled map: a blob mostly
+    """blob_kernels.streak_candidates (gather._could_keep) against OpenCV's components of the subsampled map: a blob mostly
     pale (and mostly new and fresh, for the faint pass) away from the edge, on maps of even and odd sizes, with rows
     said empty, for both calls."""
     from stereotrack.evidence.gather import _could_keep, _nearest
@@ -307,3 +307,24 @@ def test_a_moving_balls_pale_rim_is_not_labelled_and_a_pale_streak_still_is(monk
     assert streak.moving[243, 218] == 1 and labelled
     labelled.clear()
     assert _faint_view(0.09).moving.sum() > 0 and labelled
+
+
+def test_a_row_pair_is_passed_over_only_when_none_of_its_words_holds_a_seed():
+    """streak_candidates passes over a pair of rows at once when no word of either holds a pixel of the map out of the
+    range (and out of the faint pass's ``before``): a blob mostly pale whose only pale pixels lie in the second row of a
+    pair, the last two words of a width that is a whole number of words, is still found (as labelling finds it)."""
+    from stereotrack.evidence.gather import _could_keep, _nearest
+
+    for w in (64, 72):
+        h = 40
+        mask, in_range = np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint8)
+        mask[16, w - 12 : w - 4 : 2] = in_range[16, w - 12 : w - 4 : 2] = 1  # the cells' corners, in range
+        mask[17, w - 12 : w - 4] = 1  # under them, pale: 8 of the blob's 12 pixels
+        assert _could_keep(mask, in_range, 6, None) is True
+        assert _candidates_by_labelling(mask, np.zeros(0, np.uint8), in_range, None, None, 6, 0)
+        cells = np.full(((h + 1) // 2, (w + 1) // 2), 2, np.uint8)
+        marks = (cells, _nearest(cells.shape[0], h), _nearest(cells.shape[1], w))
+        before = np.zeros((h, w), np.uint8)
+        before[17, w - 6 : w - 4] = 1
+        expected = _candidates_by_labelling(mask, np.zeros(0, np.uint8), in_range, before, marks, 6, 0)
+        assert _could_keep(mask, in_range, 6, None, before, marks, 0) == expected

@@ -178,3 +178,22 @@ def test_a_white_ball_s_crossings_are_its_moving_blobs_only():
     assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() == 0
     pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
     assert (np.linalg.norm(pts - balls[1], axis=1) < 3 * RADIUS).sum() > 100
+
+
+def test_the_tracked_balls_are_projected_once_a_camera_for_the_seeds_and_the_crossings(monkeypatch):
+    """Both uses of which blobs a tracked ball holds (the seeds' sizes, the crossings left out) read one projection of
+    the tracked balls per camera: they were projected twice a camera every frame."""
+    from scene_helpers import balls_at
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.particles import proposal
+
+    rig = default_rig()
+    balls = np.array([[-0.2, 1.2, 0.1], [0.1, 1.6, -0.1], [0.3, 2.2, 0.1]])
+    masks, _ = disc_masks(rig, balls)
+    views = evidence(rig, masks)
+    projected = []
+    project = Camera.project
+    monkeypatch.setattr(Camera, "project", lambda self, points: projected.append(self.name) or project(self, points))
+    pts = proposal.RayProposal(TrackerSettings(), RADIUS)(views, 400, balls_at(balls[:1]), np.random.default_rng(0))
+    assert len(pts) == 400 and sorted(projected) == sorted(cam.name for cam in rig.cameras)
