@@ -443,14 +443,6 @@ def test_track_command_rrd_matches_tracks_csv(small_recording, tmp_path):
     logged = {r["frame"]: r for r in rows["world/tracks"] if r["frame"] is not None}
     assert sorted(logged) == list(range(40))
     assert len(tracks) > 40  # the pendulums are tracked
-    first_logged = {}
-    for frame in range(40):
-        for label in logged[frame]["Ellipsoids3D:labels"] or []:
-            first_logged.setdefault(int(label.split()[0][1:]), frame)
-    # tracks.csv also holds each track's tentative frames, written once it was confirmed: the viewer shows it from then
-    hindsight = np.array([row[0] < first_logged.get(int(row[2]), np.inf) for row in tracks], bool)
-    assert np.all(tracks[hindsight, 0] < 40)
-    tracks = tracks[~hindsight]
     for frame in range(40):
         mine = tracks[tracks[:, 0] == frame]
         r = logged[frame]
@@ -633,3 +625,29 @@ def test_images_at_another_scale_cover_the_cameras_pixels(tmp_path):
     assert img.shape == (168, 224, 3)  # 0.7 x 240, 0.7 x 320
     sx, sy, sz = latest(rows["world/cameras/cam0/image"], "Transform3D:scale", 0)[0]
     assert (sx * 224, sy * 168, sz) == pytest.approx((W, H, 1.0))  # the image spans the camera's W x H pixels
+
+
+@pytest.mark.parametrize("batch_frames", [1, 90])
+def test_a_track_confirmed_later_is_shown_from_its_first_hits_as_in_tracks_csv(tmp_path, batch_frames):
+    """tracks.csv writes a track from its first hit (TrackEstimate.before, the frame it is confirmed); the viewer
+    shows it there too, whether those frames wait in the batch (90) or were sent already (1: sent again)."""
+    from stereotrack.sinks.viewer.sink import RerunSink, VizOutputs
+
+    rig, rng = make_rig(), np.random.default_rng(5)
+    results = [make_result(rig, f, rng) for f in range(8)]
+    late = np.array([0.1, 0.0, 2.0])
+    before = tuple((r.frame.time, late + 0.01 * k, np.eye(3) * 1e-4, 50) for k, r in enumerate(results[:3]))
+    confirmed = TrackEstimate(20, "pink", late + 0.03, np.zeros(3), np.eye(3) * 1e-4, "confirmed", 50, reported=True, before=before)
+    results[3] = replace(results[3], tracks=(*results[3].tracks, confirmed))
+    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "h.rrd"))
+    sink._batch_frames = batch_frames  # 1: every frame sent on its own, before the track is confirmed
+    for r in results:
+        sink.write(r)
+    sink.close()
+    rows = read_rrd(tmp_path / "h.rrd")
+    for frame in range(8):
+        labels = latest(rows["world/tracks"], "Ellipsoids3D:labels", frame)
+        assert ("#20 pink" in labels) == (frame <= 3), (frame, labels)
+        assert any(lb.startswith("#1 ") for lb in labels)  # the frame's own tracks stay
+    centres = np.array(latest(rows["world/tracks"], "Ellipsoids3D:centers", 1)).reshape(-1, 3)
+    assert np.min(np.linalg.norm(centres - (late + 0.01), axis=1)) < 1e-5

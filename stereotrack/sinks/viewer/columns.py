@@ -116,37 +116,7 @@ class ColumnWriter:
         labels = [f"{o.target} {o.n_particles}p" for o in objects]
         self.rows("world/objects", index, n_obj, rr.Points3D, positions=obj_pos, colors=obj_colours, labels=labels)
 
-        # Tracks: spheres of the ball's radius, 2-sigma covariance ellipsoids (one batched eigen-decomposition).
-        tracks = [t for b in batch for t in b.tracks]
-        n_trk = np.array([len(b.tracks) for b in batch], dtype=np.int64)
-        centres = np.array([t.position for t in tracks], dtype=float).reshape(-1, 3)
-        radii = np.array([self.style.radius(t.target) for t in tracks], dtype=float)
-        colours = np.array([self.style.packed(t.target) for t in tracks], dtype=np.uint32)
-        labels = [f"#{t.track_id} {t.target}" for t in tracks]
-        self.rows(
-            "world/tracks",
-            index,
-            n_trk,
-            rr.Ellipsoids3D,
-            centers=centres,
-            half_sizes=np.repeat(radii[:, None], 3, axis=1),
-            colors=colours,
-            labels=labels,
-        )
-        cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
-        evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
-        evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
-        halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
-        self.rows(
-            "world/tracks/covariance",
-            index,
-            n_trk,
-            rr.Ellipsoids3D,
-            centers=centres,
-            half_sizes=halves,
-            quaternions=quaternions_xyzw(evecs),
-            colors=colours,
-        )
+        tracks, n_trk, centres, colours = self._world_tracks(batch, index)
 
         # Fading trails: one two-point strip per step, alpha falling with age.
         first_trk = np.cumsum(n_trk) - n_trk
@@ -222,16 +192,67 @@ class ColumnWriter:
                 half_sizes=np.repeat(half[:, None], 2, axis=1),
                 colors=obj_colours[o_vis],
             )
-            t_vis = vis[n_objs:]
-            self.rows(
-                f"{path}/tracks",
-                index,
-                np.bincount(trk_frame[t_vis], minlength=n),
-                rr.Points2D,
-                positions=uv[n_objs:][t_vis],
-                colors=colours[t_vis],
-                labels=[lb for lb, v in zip(trk_labels, t_vis) if v],
-            )
+            self._camera_tracks(path, index, n, trk_frame, uv[n_objs:], vis[n_objs:], colours, trk_labels)
+
+    def send_tracks(self, batch: list[Pending]) -> None:
+        """Send again only the tracks of frames already sent (the world's and each camera's marks): tracks.csv's
+        hindsight rows (TrackEstimate.before) joined them, and the later row at a time is the one the viewer shows."""
+        n = len(batch)
+        frames = np.array([b.index for b in batch], dtype=np.int64)
+        index = [self.rr.TimeColumn("frame", sequence=frames), self.rr.TimeColumn("capture_time", duration=[b.time for b in batch])]
+        tracks, n_trk, centres, colours = self._world_tracks(batch, index)
+        trk_frame, trk_labels = np.repeat(np.arange(n), n_trk), [f"#{t.track_id}" for t in tracks]
+        for cam in self.rig.cameras:
+            uv, _, vis = self.visible(cam, centres)
+            self._camera_tracks(f"world/cameras/{cam.name}", index, n, trk_frame, uv, vis, colours, trk_labels)
+
+    def _world_tracks(self, batch: list[Pending], index: list[Any]) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+        """Tracks: spheres of the ball's radius, 2-sigma covariance ellipsoids (one batched eigen-decomposition).
+        Returns the batch's tracks, their count per frame, centres and packed colours."""
+        rr = self.rr
+        tracks = [t for b in batch for t in b.tracks]
+        n_trk = np.array([len(b.tracks) for b in batch], dtype=np.int64)
+        centres = np.array([t.position for t in tracks], dtype=float).reshape(-1, 3)
+        radii = np.array([self.style.radius(t.target) for t in tracks], dtype=float)
+        colours = np.array([self.style.packed(t.target) for t in tracks], dtype=np.uint32)
+        labels = [f"#{t.track_id} {t.target}" for t in tracks]
+        self.rows(
+            "world/tracks",
+            index,
+            n_trk,
+            rr.Ellipsoids3D,
+            centers=centres,
+            half_sizes=np.repeat(radii[:, None], 3, axis=1),
+            colors=colours,
+            labels=labels,
+        )
+        cov = np.array([t.covariance for t in tracks], dtype=float).reshape(-1, 3, 3)
+        evals, evecs = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
+        evecs[:, :, 2] *= np.sign(np.linalg.det(evecs))[:, None]  # proper rotations
+        halves = 2.0 * np.sqrt(np.clip(evals, 0.0, None))
+        self.rows(
+            "world/tracks/covariance",
+            index,
+            n_trk,
+            rr.Ellipsoids3D,
+            centers=centres,
+            half_sizes=halves,
+            quaternions=quaternions_xyzw(evecs),
+            colors=colours,
+        )
+        return tracks, n_trk, centres, colours
+
+    def _camera_tracks(self, path, index, n, trk_frame, uv, vis, colours, trk_labels) -> None:
+        """A camera's marks of the batch's tracks (``uv``, ``vis``: their projections, from ``visible``)."""
+        self.rows(
+            f"{path}/tracks",
+            index,
+            np.bincount(trk_frame[vis], minlength=n),
+            self.rr.Points2D,
+            positions=uv[vis],
+            colors=colours[vis],
+            labels=[lb for lb, v in zip(trk_labels, vis) if v],
+        )
 
     def rows(self, path: str, index: list[Any], lengths: np.ndarray, archetype: type, **fields: Any) -> None:
         """One send_columns: each field's instances (all frames of the batch, concatenated) split into rows of these lengths.

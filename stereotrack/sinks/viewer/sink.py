@@ -40,7 +40,7 @@ import sys
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +51,7 @@ from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
+from ..tracks_csv import hold_for
 from .columns import ColumnWriter, Pending, SeriesBuffer, Trail
 from .process import FLUSH_SECONDS, finish_outlets, flush_bounded, open_outlets
 from .style import (
@@ -179,6 +180,10 @@ class RerunSink:
         self._subsets: dict[int, np.ndarray] = {}  # population size -> the particles logged
         self._series = SeriesBuffer(rr, self.columns.rows)
         self._batch: list[Pending] = []  # logged frames not sent yet (the logging thread's own)
+        # The logged frames of the last seconds tracks.csv holds, by frame time: a track confirmed now joins the frames
+        # of its first hits (TrackEstimate.before), as in tracks.csv; those already sent are sent again (``_amend``).
+        self._recent: deque[tuple[float, Pending]] = deque()
+        self._hindsight = hold_for(config.tracks)
         self._batch_started = 0.0  # time.monotonic() when the first of them arrived
         watched = outputs.spawn or outputs.connect or outputs.serve
         self._batch_frames, self._batch_seconds = (BATCH, BATCH_SECONDS) if watched else (FILE_BATCH, FILE_BATCH_SECONDS)
@@ -324,7 +329,12 @@ class RerunSink:
             self._log_extras(result)
         if not self._batch:
             self._batch_started = time.monotonic()
-        self._batch.append(self._gather(result, now))
+        pending = self._gather(result, now)
+        self._batch.append(pending)
+        self._amend(result)
+        self._recent.append((result.frame.time, pending))
+        while self._recent and self._recent[0][0] < result.frame.time - self._hindsight:
+            self._recent.popleft()
         self._log_stats(result, now, fps)
         if len(self._batch) >= self._batch_frames or time.monotonic() - self._batch_started >= self._batch_seconds:
             self._flush()
@@ -376,6 +386,22 @@ class RerunSink:
 
         size = self._image_sizes[ci]
         return img if (img.shape[1], img.shape[0]) == size else cv2.resize(img, size, interpolation=self._resize)
+
+    def _amend(self, result: FrameResult) -> None:
+        """Add each track confirmed this frame to the logged frames of its first hits (its tentative ones), as tracks.csv
+        writes it; frames already sent are sent again with it (the viewer shows a time's later row)."""
+        sent = []
+        for t in result.confirmed:
+            for time_, position, covariance, n_particles in t.before:
+                pending = next((p for when, p in self._recent if when == time_), None)
+                if pending is None:  # not logged (a live frame skipped) or older than the hindsight kept
+                    continue
+                early = replace(t, position=position, covariance=covariance, n_particles=n_particles, state="confirmed", before=())
+                pending.tracks = (*pending.tracks, early)
+                if all(pending is not b for b in self._batch):
+                    sent.append(pending)
+        if sent:
+            self.columns.send_tracks(sorted({id(p): p for p in sent}.values(), key=lambda p: p.index))
 
     def _flush(self) -> None:
         batch, self._batch = self._batch, []
