@@ -10,7 +10,7 @@ import numpy as np
 
 from ..config import TrackSettings
 from ..files import AtomicOutput, read_columns
-from ..results import FrameResult
+from ..results import FrameResult, TrackEstimate
 
 _EPS_TIME = 1e-9
 _FRAME_MARGIN = 0.1  # seconds: a frame or more at any camera rate, beyond the hold's bound
@@ -41,19 +41,26 @@ class TracksCsvSink:
         lines = [_row(f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target) for tr in result.confirmed]
         self._held.append((f.time, f.index, lines))
         for tr in result.confirmed:
-            for time, position, covariance, n_particles in tr.before:
-                held = self._frame_at(time)
-                if held is not None:  # always, when the hold covers the config's confirm_time (hold_for)
-                    held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
+            if tr.before:
+                self._add_before(tr)
         while self._held and self._held[0][0] <= f.time - self.hold + _EPS_TIME:  # a frame's rows go once it is ``hold`` old
             self._flush_oldest()
         self._file.flush()
 
-    def _frame_at(self, time: float) -> tuple[float, int, list[str]] | None:
-        for held in reversed(self._held):
-            if held[0] <= time:
-                return held if held[0] == time else None
-        return None
+    def _add_before(self, tr: TrackEstimate) -> None:
+        """A track confirmed this frame: each of its tentative hits joins the held frame of its time. Hits and frames
+        are both in time order and each hit takes a frame of its own, so two frames of one time (a bad recording's
+        repeated timestamp) get a row each, not two rows in one frame and none in the other."""
+        frames = iter(self._held)
+        held = next(frames, None)
+        for time, position, covariance, n_particles in tr.before:
+            while held is not None and held[0] < time:
+                held = next(frames, None)
+            if held is None:
+                return
+            if held[0] == time:  # always, when the hold covers the config's confirm_time (hold_for)
+                held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
+                held = next(frames, None)
 
     def _flush_oldest(self) -> None:
         lines = self._held.popleft()[2]

@@ -60,3 +60,19 @@ def test_ctrl_c_writes_the_held_rows(tmp_path, frames):
     rows, _ = _write(tmp_path / "t.csv", hold_for(TrackSettings()), frames=frames, stop_with=KeyboardInterrupt())
     confirmed = frames - 1 >= 5 + round(TrackSettings().confirm_time * FPS)
     assert len(rows) == (frames - 5 if confirmed else 0) and (not len(rows) or rows[-1, 0] == frames - 1)
+
+
+def test_two_frames_of_one_time_get_a_row_each(tmp_path):
+    """A bad recording repeats a timestamp (frames.csv allows it): the track's tentative hits in both frames go one to
+    each frame, not both to the later one (a duplicated row, and a frame without the ball)."""
+    settings = TrackSettings()
+    manager = TrackManager(settings)
+    sink = TracksCsvSink(tmp_path / "t.csv", hold_for(settings))
+    times = [i / FPS for i in range(20)]
+    times[7] = times[6]
+    for i, t in enumerate(times):
+        ball = Object3D(target="red", position=np.array([0.1 * t, 0.0, 2.0]), covariance=np.eye(3) * 0.005**2, mass=0.5, n_particles=100)
+        sink.write(FrameResult(FramePair(i, (), (t,)), tracks=manager.update([ball] if i >= 5 else [], t)))
+    sink.close()
+    frames = read_tracks(tmp_path / "t.csv")[:, 0]
+    assert np.array_equal(frames, np.arange(5, 20)), frames
