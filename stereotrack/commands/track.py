@@ -103,6 +103,8 @@ def track_recording(args, default_out: Path | None = None) -> int:
 
 
 def _track(args, default_out: Path | None, stopper) -> int:
+    import itertools
+
     import numpy as np
 
     from ..capture.replay import RecordingSource
@@ -143,7 +145,11 @@ def _track(args, default_out: Path | None, stopper) -> int:
         tracker = make_tracker(args.method, rig, config, keep_rays=getattr(args, "viz_rays", False))
         count = getattr(tracker, "background_start", 0)  # the baseline has no background
         if count:  # the backgrounds start from frames spread over the recording, not from its first frame's balls
-            tracker.start_backgrounds(list(rec.frames(only=start_frames(rec.timestamps, wanted, count))))
+            starts = rec.frames(only=start_frames(rec.timestamps, wanted, count))
+            try:  # a Ctrl-C meanwhile stops the decoding, and the run stops at its first frame
+                tracker.start_backgrounds(itertools.takewhile(lambda _: not stopper.requested, starts))
+            finally:
+                starts.close()  # the decoders release the videos
     except BaseException:
         close_all(sinks)
         raise

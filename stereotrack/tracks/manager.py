@@ -228,7 +228,7 @@ class TrackManager:
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
         estimates = tuple(self._estimate(t, t.x, t.P, v, t.settled, t.early if t.confirmed else ()) for t, v in zip(self._tracks, seen))
         for t in self._tracks:
-            if t.confirmed:
+            if t.confirmed and t.early:
                 t.early = []  # given once, the frame it was confirmed
         return estimates
 
