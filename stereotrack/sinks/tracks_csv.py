@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from collections import deque
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -48,19 +49,10 @@ class TracksCsvSink:
         self._file.flush()
 
     def _add_before(self, tr: TrackEstimate) -> None:
-        """A track confirmed this frame: each of its tentative hits joins the held frame of its time. Hits and frames
-        are both in time order and each hit takes a frame of its own, so two frames of one time (a bad recording's
-        repeated timestamp) get a row each, not two rows in one frame and none in the other."""
-        frames = iter(self._held)
-        held = next(frames, None)
-        for time, position, covariance, n_particles in tr.before:
-            while held is not None and held[0] < time:
-                held = next(frames, None)
-            if held is None:
-                return
-            if held[0] == time:  # always, when the hold covers the config's confirm_time (hold_for)
-                held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
-                held = next(frames, None)
+        """A track confirmed this frame: each of its tentative hits joins the held frame of its time (always there,
+        when the hold covers the config's confirm_time: hold_for)."""
+        for held, (time, position, covariance, n_particles) in frames_of_hits(self._held, tr.before):
+            held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
 
     def _flush_oldest(self) -> None:
         lines = self._held.popleft()[2]
@@ -78,6 +70,23 @@ class TracksCsvSink:
             self._out.commit()
         else:
             self._out.abort()
+
+
+def frames_of_hits(frames: Iterable[tuple], hits: Sequence[tuple]) -> Iterator[tuple[tuple, tuple]]:
+    """Each of a confirmed track's tentative hits (``TrackEstimate.before``, time first) with the frame of its time
+    among ``frames`` (tuples, time first), both in time order. Each hit takes a frame of its own, so two frames of one
+    time (a bad recording's repeated timestamp) get a hit each, not both hits in one. A hit with no frame is left out
+    (the tracks.csv sink and the viewer hold only their last frames)."""
+    frames = iter(frames)
+    frame = next(frames, None)
+    for hit in hits:
+        while frame is not None and frame[0] < hit[0]:
+            frame = next(frames, None)
+        if frame is None:
+            return
+        if frame[0] == hit[0]:
+            yield frame, hit
+            frame = next(frames, None)
 
 
 def hold_for(settings: TrackSettings) -> float:

@@ -51,7 +51,7 @@ from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
 from ...results import FrameResult
-from ..tracks_csv import hold_for
+from ..tracks_csv import frames_of_hits, hold_for
 from .columns import ColumnWriter, Pending, SeriesBuffer, Trail
 from .process import FLUSH_SECONDS, finish_outlets, flush_bounded, open_outlets
 from .style import (
@@ -391,11 +391,8 @@ class RerunSink:
         """Add each track confirmed this frame to the logged frames of its first hits (its tentative ones), as tracks.csv
         writes it; frames already sent are sent again with it (the viewer shows a time's later row)."""
         sent = []
-        for t in result.confirmed:
-            for time_, position, covariance, n_particles in t.before:
-                pending = next((p for when, p in self._recent if when == time_), None)
-                if pending is None:  # not logged (a live frame skipped) or older than the hindsight kept
-                    continue
+        for t in result.confirmed:  # a hit without its frame here: not logged (a live frame skipped)
+            for (_, pending), (_, position, covariance, n_particles) in frames_of_hits(self._recent, t.before):
                 early = replace(t, position=position, covariance=covariance, n_particles=n_particles, state="confirmed", before=())
                 pending.tracks = (*pending.tracks, early)
                 if all(pending is not b for b in self._batch):
