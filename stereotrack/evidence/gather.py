@@ -19,6 +19,7 @@ from ..config import Target
 from .blob_kernels import faint_pixels, pale_cells, streak_candidates
 from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
+from .coverage import coverage_centres
 from .kernels import evidence_maps, halved_frame, picked_and_halved
 from .motion import halved
 
@@ -70,6 +71,7 @@ class CameraEvidence:
     mask_integral: np.ndarray | None = None  # the mask's summed-area table when it was at hand; else made when first asked
     counted: np.ndarray | None = None  # H x W uint8: the mask OR the moving map, the pixels the blobs are of (None: the mask)
     still: np.ndarray | None = None  # M bool: the blobs shaped like a streak that do not move (still_streaks); None: no motion
+    faint: Faint | None = None  # the frame and the background on the background's grid (a coloured target, with motion)
 
     @cached_property
     def integral(self) -> np.ndarray:
@@ -82,6 +84,15 @@ class CameraEvidence:
         if self.seeds is not None:
             return self.seeds
         return Seeds(self.blobs.centres, self.blobs.radii, self.origins, self.directions, widths=self.blobs.ball_radii())
+
+    def streak_centres(self, ids: np.ndarray) -> np.ndarray:
+        """Per blob (``ids``), where its ball was over the exposure: the centroid of its change from the background
+        (coverage.py), or its mask's centroid where that cannot be measured (no background at hand)."""
+        centres = self.blobs.centres[ids]
+        if self.faint is None or not len(ids):
+            return centres
+        measured = coverage_centres(self.blobs, ids, self.faint.image, self.faint.behind)
+        return np.where(np.isfinite(measured), measured, centres)
 
     @property
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -183,7 +194,7 @@ class CameraEvidence:
                 rows,
                 still,
             )
-        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still)
+        return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still, faint)
 
 
 def on_grid(camera: Camera, scale: int) -> Camera:

@@ -430,6 +430,18 @@ def _centroid_covs(b, ids: np.ndarray, streak: np.ndarray) -> np.ndarray:
     return covs
 
 
+def _centres(view: CameraEvidence, ids: np.ndarray, streak: np.ndarray) -> np.ndarray:
+    """The blobs' (``ids``) centroids, a long streak's (``streak`` and Blobs.swept: as wide all along, away from the
+    image's edge) from its change from the background (``streak_centres``). A short blur's mask holds nearly all of
+    its ball, and the change around it is more often something else's (fast_ball tune seed 1: a ball coming in)."""
+    out = view.blobs.centres[ids].copy()
+    if view.blobs.swept is not None:
+        streak = streak & view.blobs.swept[ids]
+    if streak.any():
+        out[streak] = view.streak_centres(ids[streak])
+    return out
+
+
 def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, predicted, swept) -> list[Object3D]:
     """Blob centroids where they belong to a ball alone and have its size; else the particles' word.
 
@@ -454,7 +466,8 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
         if len(views[i][0]) >= 2:
             by_cameras.setdefault(tuple(views[i][0]), []).append(i)
     for good, idx in by_cameras.items():
-        px = [blobs[j].centres[blob_ids[idx, j]] for j in good]
+        # A streak's centre is where its ball covered the most over the exposure, not its mask's centroid (coverage.py).
+        px = [_centres(evidence[j], blob_ids[idx, j], swept[j][blob_ids[idx, j]]) for j in good]
         # Centroid noise of a shaded, sensor-noisy ball: about half a pixel.
         streaky = [swept[j][blob_ids[idx, j]] for j in good[:2]]
         spread = [_centroid_covs(blobs[j], blob_ids[idx, j], on) for j, on in zip(good[:2], streaky)] if any(map(np.any, streaky)) else None
