@@ -190,6 +190,13 @@ class TrackSettings:
         low=0.01,
         high=60.0,
     )
+    smooth_time: float = setting(
+        0.15,
+        "seconds of later frames each tracks.csv row is smoothed with (a Kalman smoother, in hindsight); 0 = the filter's "
+        "estimate at its frame, as the live outputs (--udp, --osc) send it",
+        low=0.0,
+        high=5.0,
+    )
 
 
 @dataclass(frozen=True)

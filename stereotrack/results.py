@@ -69,6 +69,9 @@ class TrackEstimate:
     # The frame it is confirmed: its hits while tentative, each (time, position, 3 x 3 covariance, n_particles), for the
     # tracks.csv to write in hindsight (a ball is in the file from the frame it was first seen, not confirm_time later).
     before: tuple = ()
+    # Its state smooth_time ago smoothed with every frame since (a Kalman smoother): (time, position, 3 x 3 covariance),
+    # given once per frame, for the tracks.csv and the viewer to write in place of that frame's (tracks.smooth_time).
+    smoothed: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,8 +25,9 @@ class TracksCsvSink:
 
     With ``hold`` seconds, each frame's rows wait that long before they are written, so that a track confirmed
     meanwhile is in the file from the frame it was first seen (its ``TrackEstimate.before`` hits, in frame
-    order): a ball is not missing for the confirm_time it takes to trust it. ``hold_for`` gives the hold that
-    covers every track a config can confirm."""
+    order): a ball is not missing for the confirm_time it takes to trust it; and each row is written with its
+    track's smoothed state at its frame (``TrackEstimate.smoothed``, smooth_time later). ``hold_for`` gives the
+    hold that covers every track a config can confirm, and the smoothing."""
 
     def __init__(self, path: str | Path, hold: float = 0.0):
         self.path = Path(path)
@@ -34,16 +35,19 @@ class TracksCsvSink:
         self._out = AtomicOutput(self.path, "tracks file")
         self._file = self._out.open("w", newline="")
         self._file.write(",".join(HEADER) + "\n")
-        self._held: deque[tuple[float, int, list[str]]] = deque()  # (time, index, rows) of the frames not written yet, oldest first
+        self._held: deque[tuple[float, int, list[list]]] = deque()  # (time, index, rows) of the frames not written yet, oldest first
         self.rows = 0
 
     def write(self, result: FrameResult) -> None:
         f = result.frame
-        lines = [_row(f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target) for tr in result.confirmed]
-        self._held.append((f.time, f.index, lines))
+        rows = [[f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target] for tr in result.confirmed]
+        self._held.append((f.time, f.index, rows))
         for tr in result.confirmed:
             if tr.before:
                 self._add_before(tr)
+        for tr in result.tracks:
+            if tr.smoothed:
+                self._smooth(tr)
         while self._held and self._held[0][0] <= f.time - self.hold + _EPS_TIME:  # a frame's rows go once it is ``hold`` old
             self._flush_oldest()
         self._file.flush()
@@ -52,13 +56,20 @@ class TracksCsvSink:
         """A track confirmed this frame: each of its tentative hits joins the held frame of its time (always there,
         when the hold covers the config's confirm_time: hold_for)."""
         for held, (time, position, covariance, n_particles) in frames_of_hits(self._held, tr.before):
-            held[2].append(_row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
+            held[2].append([held[1], time, tr.track_id, position, covariance, n_particles, tr.target])
+
+    def _smooth(self, tr: TrackEstimate) -> None:
+        """A track's smoothed state at a held frame takes the place of its row's (when it has one there)."""
+        for held, (_, position, covariance) in frames_of_hits(self._held, (tr.smoothed,)):
+            for row in held[2]:
+                if row[2] == tr.track_id and row[6] == tr.target:
+                    row[3], row[4] = position, covariance
 
     def _flush_oldest(self) -> None:
-        lines = self._held.popleft()[2]
-        if lines:
-            self._file.writelines(lines)
-            self.rows += len(lines)
+        rows = self._held.popleft()[2]
+        if rows:
+            self._file.writelines(_row(*row) for row in rows)
+            self.rows += len(rows)
 
     def close(self) -> None:
         if self._file.closed:
@@ -91,8 +102,9 @@ def frames_of_hits(frames: Iterable[tuple], hits: Sequence[tuple]) -> Iterator[t
 
 def hold_for(settings: TrackSettings) -> float:
     """Seconds a frame's rows wait so every track confirmed later has its first hits written (TracksCsvSink): a track
-    is confirmed at its first hit confirm_time after its birth, and its hits are at most tentative_time apart."""
-    return settings.confirm_time + settings.tentative_time + _FRAME_MARGIN
+    is confirmed at its first hit confirm_time after its birth, and its hits are at most tentative_time apart; and so
+    every row has its smoothed state (smooth_time later)."""
+    return max(settings.confirm_time + settings.tentative_time, settings.smooth_time) + _FRAME_MARGIN
 
 
 def _row(index: int, time: float, track_id: int, position, covariance, n_particles: int, target: str) -> str:

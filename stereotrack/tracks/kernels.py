@@ -94,3 +94,27 @@ def kalman_correct(x, P, z, R):
                 acc += KR[i, a] * K[j, a]
             P2[i, j] = acc
     return x2, P2
+
+
+@kernel
+def rts_oldest(xf, Pf, xp, Pp, F, linked):
+    """The Rauch-Tung-Striebel smoother's estimate of a track's oldest state from its later ones: K filtered states
+    (xf K x 6, Pf K x 6 x 6, oldest first), and for each the prediction into it from the one before (xp, Pp, F;
+    ``linked[k]`` False where the state was set anew, not predicted: a catch, a restart). Back from the newest,
+    where smoothed equals filtered:
+        C_k = Pf_k F_k+1' Pp_k+1^-1
+        xs_k = xf_k + C_k (xs_k+1 - xp_k+1)
+        Ps_k = Pf_k + C_k (Ps_k+1 - Pp_k+1) C_k'
+    past a break the smoothing starts over from the filtered state. Returns (xs_0, Ps_0)."""
+    K = xf.shape[0]
+    xs = xf[K - 1].copy()
+    Ps = Pf[K - 1].copy()
+    for k in range(K - 2, -1, -1):
+        if not linked[k + 1]:
+            xs = xf[k].copy()
+            Ps = Pf[k].copy()
+            continue
+        C = Pf[k] @ F[k + 1].T @ np.linalg.inv(Pp[k + 1])
+        xs = xf[k] + C @ (xs - xp[k + 1])
+        Ps = Pf[k] + C @ (Ps - Pp[k + 1]) @ C.T
+    return xs, Ps

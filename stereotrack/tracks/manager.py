@@ -14,6 +14,9 @@ lifecycle moves on:
 All limits are in seconds, so a run behaves the same at 15, 30 or 60 fps.
 The frame a track is confirmed, its estimate carries its hits while tentative
 (``TrackEstimate.before``): tracks.csv writes the ball from its first frame.
+Once a frame is ``smooth_time`` old, each track gives its state there smoothed
+with the frames since (``TrackEstimate.smoothed``, a Rauch-Tung-Striebel
+smoother): tracks.csv writes that in place of the filter's.
 Objects of different targets never match each other; ids are positive
 integers unique across targets within a run.
 
@@ -37,7 +40,7 @@ from ..camera import Rig
 from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola
-from .kernels import association_costs, kalman_correct, kalman_predict
+from .kernels import association_costs, kalman_correct, kalman_predict, rts_oldest
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
@@ -91,6 +94,8 @@ class _Track:
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
+    link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
+    past: list = field(default_factory=list)  # (time, x, P, link) of its frames within smooth_time, oldest first
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -168,7 +173,9 @@ class TrackManager:
         """
         s = self.settings
         for tr in self._tracks:
+            F = self._motion_model(time - tr.time, tr.in_flight)[0] if time > tr.time else np.eye(6)
             tr.x, tr.P = self._predict(tr, time)
+            tr.link = (tr.x.copy(), tr.P.copy(), F)
             tr.time = time
             tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
             tr.hit = False
@@ -226,7 +233,10 @@ class TrackManager:
             if t.hit and not t.confirmed:
                 t.early.append((time, t.x[:3].copy(), t.P[:3, :3].copy(), t.n_particles))
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
-        estimates = tuple(self._estimate(t, t.x, t.P, v, t.settled, t.early if t.confirmed else ()) for t, v in zip(self._tracks, seen))
+        smoothed = [self._smoothed(t, time) for t in self._tracks]
+        estimates = tuple(
+            self._estimate(t, t.x, t.P, v, t.settled, t.early if t.confirmed else (), sm) for t, v, sm in zip(self._tracks, seen, smoothed)
+        )
         for t in self._tracks:
             if t.confirmed and t.early:
                 t.early = []  # given once, the frame it was confirmed
@@ -337,6 +347,7 @@ class TrackManager:
         tr.parabola = None
         tr.history = []
         tr.caught_at = None
+        tr.link = None  # set anew: the smoother starts over here
 
     def _pace(self, tr: _Track, sharp: bool) -> float | None:
         """How fast the ball of a confirmed track not in flight may have gone since its latest hit where its motion model
@@ -378,6 +389,7 @@ class TrackManager:
         tr.last_hit, tr.streak, tr.hits, tr.hit, tr.n_particles = time, 1, 1, True, int(obj.n_particles)
         tr.history, tr.parabola, tr.prediction, tr.caught_at, tr.top_speed = [], None, None, None, 0.0
         tr.seen_at = z.copy()
+        tr.link = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
@@ -404,6 +416,7 @@ class TrackManager:
             P = np.zeros((6, 6))  # both positions measured with about this object's noise
             P[:3, :3], P[:3, 3:], P[3:, :3], P[3:, 3:] = R[j], R[j] / dt[r], R[j] / dt[r], 2.0 * R[j] / dt[r] ** 2
             tr.x, tr.P = np.r_[z[j], (z[j] - first[r]) / dt[r]], P
+            tr.link = None
             self._hit(tr, z[j], R[j], objs[j], time)
             free[j] = False
 
@@ -499,6 +512,31 @@ class TrackManager:
         radius = self.radius.get(tr.target, np.inf)
         return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
 
+    def _smoothed(self, tr: _Track, time: float) -> tuple:
+        """Keep this frame's state; once a frame is smooth_time old, its state smoothed with every later one of the
+        track's (rts_oldest), as (time, position, 3 x 3 covariance), given once; () while none is that old, for a
+        tentative track (its tentative hits are smoothed the same once it is confirmed, while they are that recent) or
+        with smooth_time 0.
+
+        A filter's estimate at a frame knows only the frames before it: a far ball's depth, a pixel of disparity off in
+        one frame, pulls the track off for several. The smoother's knows the frames after too (fast_ball tune seeds
+        0-59, written smoothed over 0.15 s: median MOTA 0.862 -> 0.926, mean 0.708 -> 0.789)."""
+        window = self.settings.smooth_time
+        if window <= 0:
+            return ()
+        tr.past.append((time, tr.x.copy(), tr.P.copy(), tr.link))
+        if tr.past[0][0] > time - window + _EPS_TIME:
+            return ()
+        past, tr.past = tr.past, tr.past[1:]
+        if not tr.confirmed or len(past) < 2:
+            return ()
+        linked = np.array([link is not None for *_, link in past])
+        xp = np.array([link[0] if link is not None else x for _, x, _, link in past])
+        Pp = np.array([link[1] if link is not None else P for _, _, P, link in past])
+        F = np.array([link[2] if link is not None else np.eye(6) for *_, link in past])
+        xs, Ps = rts_oldest(np.array([x for _, x, _, _ in past]), np.array([P for _, _, P, _ in past]), xp, Pp, F, linked)
+        return (past[0][0], xs[:3].copy(), Ps[:3, :3].copy())
+
     def _expired(self, tr: _Track, time: float) -> bool:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
         return time - tr.last_hit > limit + _EPS_TIME
@@ -513,7 +551,9 @@ class TrackManager:
             inside &= ok & cam.in_image(uv)
         return inside
 
-    def _estimate(self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = ()) -> TrackEstimate:
+    def _estimate(
+        self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = (), smoothed: tuple = ()
+    ) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
@@ -535,4 +575,5 @@ class TrackManager:
             flight=tr.parabola,
             settled=settled,
             before=tuple(before),
+            smoothed=smoothed,
         )

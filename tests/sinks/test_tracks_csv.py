@@ -76,3 +76,30 @@ def test_two_frames_of_one_time_get_a_row_each(tmp_path):
     sink.close()
     frames = read_tracks(tmp_path / "t.csv")[:, 0]
     assert np.array_equal(frames, np.arange(5, 20)), frames
+
+
+def test_each_row_is_its_tracks_smoothed_state_at_its_frame(tmp_path):
+    """A row is written with the state its track had at its frame smoothed with the frames after (TrackEstimate.smoothed,
+    smooth_time later); the last rows, which no later frame smooths, keep the filter's."""
+    rng = np.random.default_rng(4)
+    manager = TrackManager(TrackSettings())
+    sink = TracksCsvSink(tmp_path / "t.csv", hold_for(TrackSettings()))
+    smoothed, filtered = {}, {}
+    try:
+        for i in range(30):
+            tracks = manager.update([_ball(i, rng)], i / FPS)
+            sink.write(FrameResult(FramePair(i, (), (i / FPS,)), tracks=tracks))
+            for tr in tracks:
+                filtered[i] = tr.position
+                if tr.smoothed:
+                    smoothed[round(tr.smoothed[0] * FPS)] = tr.smoothed[1]
+    finally:
+        sink.close()
+    rows = read_tracks(tmp_path / "t.csv")
+    assert np.array_equal(rows[:, 0], np.arange(30))
+    assert len(smoothed) >= 20
+    for frame, x, y, z in rows[:, [0, 3, 4, 5]]:
+        expected = smoothed.get(int(frame), filtered[int(frame)])
+        assert np.allclose([x, y, z], expected, atol=1e-5)
+    assert all(int(f) in smoothed for f in rows[:-6, 0]), "every row but the last smooth_time's is smoothed"
+    assert not np.allclose(rows[10, 3:6], filtered[10], atol=1e-5), "and smoothing moved them"

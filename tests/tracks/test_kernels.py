@@ -32,3 +32,43 @@ def test_association_costs_match_numpy():
     y = z[None] - pos[:, None]
     want = np.einsum("tmi,tmi->tm", y, np.linalg.solve(S, y[..., None])[..., 0])
     assert np.allclose(d2, want) and np.allclose(cost, want + np.linalg.slogdet(S)[1])
+
+
+def _rts_reference(xf, Pf, xp, Pp, F):
+    """The Rauch-Tung-Striebel recursion as textbooks write it, every state smoothed, oldest first."""
+    xs, Ps = [xf[-1]], [Pf[-1]]
+    for k in range(len(xf) - 2, -1, -1):
+        C = Pf[k] @ F[k + 1].T @ np.linalg.inv(Pp[k + 1])
+        xs.insert(0, xf[k] + C @ (xs[0] - xp[k + 1]))
+        Ps.insert(0, Pf[k] + C @ (Ps[0] - Pp[k + 1]) @ C.T)
+    return xs, Ps
+
+
+def _filtered(rng, n, dt=1 / 30):
+    """A Kalman filter's states, and its predictions into each, along a noisy constant-velocity path."""
+    F, Q, b = motion_model(dt, 30.0, None)
+    R = np.eye(3) * 0.01**2
+    x, P = np.zeros(6), np.eye(6)
+    xf, Pf, xp, Pp = [], [], [], []
+    for k in range(n):
+        x, P = track_kernels.kalman_predict(x, P, F, Q, b)
+        xp.append(x)
+        Pp.append(P)
+        x, P = track_kernels.kalman_correct(x, P, np.array([k * dt, 0.0, 2.0]) + rng.normal(0, 0.01, 3), R)
+        xf.append(x)
+        Pf.append(P)
+    return np.array(xf), np.array(Pf), np.array(xp), np.array(Pp), np.repeat(F[None], n, axis=0)
+
+
+def test_the_smoother_matches_the_textbook_recursion_and_starts_over_past_a_break():
+    rng = np.random.default_rng(11)
+    xf, Pf, xp, Pp, F = _filtered(rng, 8)
+    xs, Ps = track_kernels.rts_oldest(xf, Pf, xp, Pp, F, np.ones(8, bool))
+    ref_x, ref_P = _rts_reference(xf, Pf, xp, Pp, F)
+    assert np.allclose(xs, ref_x[0]) and np.allclose(Ps, ref_P[0])
+    assert not np.allclose(xs, xf[0]), "the later states moved it"
+    linked = np.ones(8, bool)
+    linked[4] = False  # the state was set anew at the fifth: the first four are smoothed among themselves
+    xs, Ps = track_kernels.rts_oldest(xf, Pf, xp, Pp, F, linked)
+    ref_x, ref_P = _rts_reference(xf[:4], Pf[:4], xp[:4], Pp[:4], F[:4])
+    assert np.allclose(xs, ref_x[0]) and np.allclose(Ps, ref_P[0])

@@ -528,3 +528,36 @@ def test_a_confirmed_track_hands_over_its_tentative_hits_once():
     assert len(given) == 1
     i, track_id, times = given[0]
     assert i == 3 and np.allclose(times, [0, 1 / 30, 2 / 30])
+
+
+@pytest.mark.parametrize("fps", [30, 60])
+def test_each_state_is_given_once_smoothed_a_smooth_time_later_and_beats_the_filter(fps):
+    """A ball in flight with 1 cm noise: each frame's state comes back once, smooth_time later, smoothed with the frames
+    since, nearer the truth than the filter's at that frame; with smooth_time 0 none comes back."""
+    rng = np.random.default_rng(5)
+    p0, v0, g = np.array([-1.0, 3.0, 0.5]), np.array([4.0, 0.5, 3.0]), np.array([0.0, 0.0, -9.81])
+
+    def truth(t):
+        return p0 + v0 * t + 0.5 * g * t * t
+
+    settings = TrackSettings(up=(0.0, 0.0, 1.0))
+    noise = [rng.normal(0, 0.01, 3) for _ in range(fps)]
+    filtered, smoothed = {}, []
+    m = TrackManager(settings)
+    for i in range(fps):
+        t = i / fps
+        (tr,) = m.update([obj(truth(t) + noise[i], sigma=0.01)], t)
+        filtered[round(t, 9)] = tr.position, tr.covariance
+        if tr.smoothed:
+            time, position, covariance = tr.smoothed
+            assert t - time == pytest.approx(np.ceil(settings.smooth_time * fps - 1e-6) / fps)
+            assert np.all(np.diag(covariance) <= np.diag(filtered[round(time, 9)][1]) + 1e-12), "knowing more, it claims less"
+            smoothed.append((time, position))
+    times = [time for time, _ in smoothed]
+    assert len(set(times)) == len(times), "given once"
+    late = [(time, p) for time, p in smoothed if time >= 0.2]  # the filter has its velocity by then
+    err_smoothed = np.mean([np.linalg.norm(p - truth(time)) for time, p in late])
+    err_filtered = np.mean([np.linalg.norm(filtered[round(time, 9)][0] - truth(time)) for time, _ in late])
+    assert err_smoothed < 0.8 * err_filtered
+    off = TrackManager(replace(settings, smooth_time=0.0))
+    assert not any(tr.smoothed for i in range(fps) for tr in off.update([obj(truth(i / fps) + noise[i], sigma=0.01)], i / fps))

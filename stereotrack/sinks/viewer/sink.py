@@ -388,15 +388,27 @@ class RerunSink:
         return img if (img.shape[1], img.shape[0]) == size else cv2.resize(img, size, interpolation=self._resize)
 
     def _amend(self, result: FrameResult) -> None:
-        """Add each track confirmed this frame to the logged frames of its first hits (its tentative ones), as tracks.csv
-        writes it; frames already sent are sent again with it (the viewer shows a time's later row)."""
+        """Add each track confirmed this frame to the logged frames of its first hits (its tentative ones), and put each
+        track's smoothed state in its logged frame of that time, as tracks.csv writes them; frames already sent are sent
+        again with it (the viewer shows a time's later row)."""
         sent = []
         for t in result.confirmed:  # a hit without its frame here: not logged (a live frame skipped)
             for (_, pending), (_, position, covariance, n_particles) in frames_of_hits(self._recent, t.before):
                 early = replace(t, position=position, covariance=covariance, n_particles=n_particles, state="confirmed", before=())
                 pending.tracks = (*pending.tracks, early)
-                if all(pending is not b for b in self._batch):
+                sent.append(pending)
+        for t in result.tracks:
+            for (_, pending), (_, position, covariance) in frames_of_hits(self._recent, (t.smoothed,) if t.smoothed else ()):
+                mine = [k for k, shown in enumerate(pending.tracks) if shown.track_id == t.track_id and shown.target == t.target]
+                for k in mine:
+                    pending.tracks = (
+                        *pending.tracks[:k],
+                        replace(pending.tracks[k], position=position, covariance=covariance),
+                        *pending.tracks[k + 1 :],
+                    )
+                if mine:
                     sent.append(pending)
+        sent = [p for p in sent if all(p is not b for b in self._batch)]
         if sent:
             self.columns.send_tracks(sorted({id(p): p for p in sent}.values(), key=lambda p: p.index))
 
