@@ -95,7 +95,7 @@ class _Track:
     settled: bool = False  # see ``TrackManager._settled``
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
-    past: list = field(default_factory=list)  # (time, x, P, link) of its frames within smooth_time, oldest first
+    past: list = field(default_factory=list)  # (time, x, P, link, hit) of its frames within smooth_time, oldest first
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -514,9 +514,9 @@ class TrackManager:
 
     def _smoothed(self, tr: _Track, time: float) -> tuple:
         """Keep this frame's state; once a frame is smooth_time old, its state smoothed with every later one of the
-        track's (rts_oldest), as (time, position, 3 x 3 covariance), given once; () while none is that old, for a
-        tentative track (its tentative hits are smoothed the same once it is confirmed, while they are that recent) or
-        with smooth_time 0.
+        track's (rts_oldest), as (time, position, 3 x 3 covariance), given once; () while none is that old, for a frame
+        it was missed (it keeps what it reported), for a tentative track (its tentative hits are smoothed the same once it
+        is confirmed, while they are that recent) or with smooth_time 0.
 
         A filter's estimate at a frame knows only the frames before it: a far ball's depth, a pixel of disparity off in
         one frame, pulls the track off for several. The smoother's knows the frames after too (fast_ball tune seeds
@@ -524,17 +524,18 @@ class TrackManager:
         window = self.settings.smooth_time
         if window <= 0:
             return ()
-        tr.past.append((time, tr.x.copy(), tr.P.copy(), tr.link))
+        tr.past.append((time, tr.x.copy(), tr.P.copy(), tr.link, tr.hit))
         if tr.past[0][0] > time - window + _EPS_TIME:
             return ()
         past, tr.past = tr.past, tr.past[1:]
-        if not tr.confirmed or len(past) < 2:
+        # A frame it was missed keeps what it reported (its prediction, or where a hand caught it: ``_estimate``).
+        if not tr.confirmed or len(past) < 2 or not past[0][4]:
             return ()
-        linked = np.array([link is not None for *_, link in past])
-        xp = np.array([link[0] if link is not None else x for _, x, _, link in past])
-        Pp = np.array([link[1] if link is not None else P for _, _, P, link in past])
-        F = np.array([link[2] if link is not None else np.eye(6) for *_, link in past])
-        xs, Ps = rts_oldest(np.array([x for _, x, _, _ in past]), np.array([P for _, _, P, _ in past]), xp, Pp, F, linked)
+        linked = np.array([link is not None for *_, link, _ in past])
+        xp = np.array([link[0] if link is not None else x for _, x, _, link, _ in past])
+        Pp = np.array([link[1] if link is not None else P for _, _, P, link, _ in past])
+        F = np.array([link[2] if link is not None else np.eye(6) for *_, link, _ in past])
+        xs, Ps = rts_oldest(np.array([x for _, x, *_ in past]), np.array([P for _, _, P, *_ in past]), xp, Pp, F, linked)
         return (past[0][0], xs[:3].copy(), Ps[:3, :3].copy())
 
     def _expired(self, tr: _Track, time: float) -> bool:
