@@ -40,7 +40,8 @@ from ..camera import Rig
 from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola
-from .kernels import association_costs, kalman_correct, kalman_predict, rts_oldest
+from .kernels import association_costs, kalman_correct, kalman_predict
+from .smoothing import FilterHistory
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
@@ -95,7 +96,7 @@ class _Track:
     settled: bool = False  # see ``TrackManager._settled``
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
-    past: list = field(default_factory=list)  # (time, x, P, link, hit) of its frames within smooth_time, oldest first
+    past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
 
 
 def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -524,19 +525,15 @@ class TrackManager:
         window = self.settings.smooth_time
         if window <= 0:
             return ()
-        tr.past.append((time, tr.x.copy(), tr.P.copy(), tr.link, tr.hit))
-        if tr.past[0][0] > time - window + _EPS_TIME:
+        tr.past.append(time, tr.x, tr.P, tr.link, tr.hit)
+        oldest, seen = tr.past.oldest()
+        if oldest > time - window + _EPS_TIME:
             return ()
-        past, tr.past = tr.past, tr.past[1:]
         # A frame it was missed keeps what it reported (its prediction, or where a hand caught it: ``_estimate``).
-        if not tr.confirmed or len(past) < 2 or not past[0][4]:
-            return ()
-        linked = np.array([link is not None for *_, link, _ in past])
-        xp = np.array([link[0] if link is not None else x for _, x, _, link, _ in past])
-        Pp = np.array([link[1] if link is not None else P for _, _, P, link, _ in past])
-        F = np.array([link[2] if link is not None else np.eye(6) for *_, link, _ in past])
-        xs, Ps = rts_oldest(np.array([x for _, x, *_ in past]), np.array([P for _, _, P, *_ in past]), xp, Pp, F, linked)
-        return (past[0][0], xs[:3].copy(), Ps[:3, :3].copy())
+        smooth = tr.confirmed and len(tr.past) >= 2 and seen
+        xs, Ps = tr.past.smoothed_oldest() if smooth else (None, None)
+        tr.past.drop_oldest()
+        return (oldest, xs[:3].copy(), Ps[:3, :3].copy()) if smooth else ()
 
     def _expired(self, tr: _Track, time: float) -> bool:
         limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time

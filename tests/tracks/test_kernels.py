@@ -4,6 +4,7 @@ import numpy as np
 
 from stereotrack.tracks import kernels as track_kernels
 from stereotrack.tracks.manager import motion_model
+from stereotrack.tracks.smoothing import FilterHistory
 
 
 def test_kalman_steps_match_the_textbook_formulas():
@@ -72,3 +73,25 @@ def test_the_smoother_matches_the_textbook_recursion_and_starts_over_past_a_brea
     xs, Ps = track_kernels.rts_oldest(xf, Pf, xp, Pp, F, linked)
     ref_x, ref_P = _rts_reference(xf[:4], Pf[:4], xp[:4], Pp[:4], F[:4])
     assert np.allclose(xs, ref_x[0]) and np.allclose(Ps, ref_P[0])
+
+
+def test_the_filter_history_grows_and_drops_its_oldest_keeping_order():
+    history = FilterHistory(capacity=2)
+    rng = np.random.default_rng(3)
+    states = [
+        (k / 30, rng.normal(size=6), np.eye(6) * (k + 1), None if k == 2 else (rng.normal(size=6), np.eye(6), np.eye(6)), k != 3)
+        for k in range(7)
+    ]
+    for state in states:
+        history.append(*state)
+    history.drop_oldest()
+    assert len(history) == 6 and history.oldest() == (1 / 30, True)
+    assert np.array_equal(history.x[:6], [s[1] for s in states[1:]])
+    assert list(history.linked[:6]) == [True, False, True, True, True, True] and list(history.hit[:6]) == [
+        True,
+        True,
+        False,
+        True,
+        True,
+        True,
+    ]

@@ -1,0 +1,67 @@
+"""A track's recent Kalman filter states, kept for smoothing them in hindsight (tracks.smooth_time).
+
+The tracks.csv sink holds each frame's rows a moment before it writes them
+(sinks/tracks_csv.py); meanwhile the frames after it are tracked, and a
+Rauch-Tung-Striebel smoother (kernels.rts_oldest) can use them to revise the
+state at that frame. This is the history it reads: per frame, the filtered
+state, the prediction into it from the frame before, and whether the track
+was seen. Arrays that grow as needed and shift by one as the oldest leaves,
+so the smoother reads them as they are, once per track and frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kernels import rts_oldest
+
+
+class FilterHistory:
+    """One track's filter states over its last frames, oldest first."""
+
+    def __init__(self, capacity: int = 16):
+        self.n = 0
+        self.times = np.empty(capacity)
+        self.x = np.empty((capacity, 6))  # the filtered states ...
+        self.P = np.empty((capacity, 6, 6))
+        self.xp = np.empty((capacity, 6))  # ... the predictions into them from the frame before ...
+        self.Pp = np.empty((capacity, 6, 6))
+        self.F = np.empty((capacity, 6, 6))  # ... with the transition that made them
+        self.linked = np.zeros(capacity, bool)  # False where the state was set anew (a catch, a restart): no prediction
+        self.hit = np.zeros(capacity, bool)  # the track was seen that frame
+
+    def __len__(self) -> int:
+        return self.n
+
+    def append(self, time: float, x: np.ndarray, P: np.ndarray, link: tuple | None, hit: bool) -> None:
+        """A frame's state (``link``: the prediction into it, (x, P, F), or None where it was set anew)."""
+        if self.n == len(self.times):
+            self._grow()
+        k = self.n
+        self.times[k], self.x[k], self.P[k], self.hit[k] = time, x, P, hit
+        self.linked[k] = link is not None
+        if link is not None:
+            self.xp[k], self.Pp[k], self.F[k] = link
+        self.n += 1
+
+    def oldest(self) -> tuple[float, bool]:
+        """The oldest frame's time, and whether the track was seen then."""
+        return float(self.times[0]), bool(self.hit[0])
+
+    def smoothed_oldest(self) -> tuple[np.ndarray, np.ndarray]:
+        """The oldest frame's state (6) and covariance (6 x 6) smoothed with every later one (kernels.rts_oldest)."""
+        n = self.n
+        return rts_oldest(self.x[:n], self.P[:n], self.xp[:n], self.Pp[:n], self.F[:n], self.linked[:n])
+
+    def drop_oldest(self) -> None:
+        n = self.n
+        for a in (self.times, self.x, self.P, self.xp, self.Pp, self.F, self.linked, self.hit):
+            a[: n - 1] = a[1:n]
+        self.n -= 1
+
+    def _grow(self) -> None:
+        for name in ("times", "x", "P", "xp", "Pp", "F", "linked", "hit"):
+            a = getattr(self, name)
+            bigger = np.zeros((2 * len(a), *a.shape[1:]), a.dtype)
+            bigger[: len(a)] = a
+            setattr(self, name, bigger)
