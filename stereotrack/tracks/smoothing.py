@@ -5,7 +5,7 @@ The tracks.csv sink holds each frame's rows a moment before it writes them
 Rauch-Tung-Striebel smoother (kernels.rts_oldest) can use them to revise the
 state at that frame. This is the history it reads: per frame, the filtered
 state, the prediction into it from the frame before, and whether the track
-was seen. Arrays that grow as needed and shift by one as the oldest leaves,
+reported it. Arrays that grow as needed and shift by one as the oldest leaves,
 so the smoother reads them as they are, once per track and frame.
 """
 
@@ -28,25 +28,26 @@ class FilterHistory:
         self.Pp = np.empty((capacity, 6, 6))
         self.F = np.empty((capacity, 6, 6))  # ... with the transition that made them
         self.linked = np.zeros(capacity, bool)  # False where the state was set anew (a catch, a restart): no prediction
-        self.hit = np.zeros(capacity, bool)  # the track was seen that frame
+        self.kept = np.zeros(capacity, bool)  # its state that frame is what the track reported (not where a hand caught it)
 
     def __len__(self) -> int:
         return self.n
 
-    def append(self, time: float, x: np.ndarray, P: np.ndarray, link: tuple | None, hit: bool) -> None:
-        """A frame's state (``link``: the prediction into it, (x, P, F), or None where it was set anew)."""
+    def append(self, time: float, x: np.ndarray, P: np.ndarray, link: tuple | None, kept: bool) -> None:
+        """A frame's state (``link``: the prediction into it, (x, P, F), or None where it was set anew; ``kept``: the
+        track reported it)."""
         if self.n == len(self.times):
             self._grow()
         k = self.n
-        self.times[k], self.x[k], self.P[k], self.hit[k] = time, x, P, hit
+        self.times[k], self.x[k], self.P[k], self.kept[k] = time, x, P, kept
         self.linked[k] = link is not None
         if link is not None:
             self.xp[k], self.Pp[k], self.F[k] = link
         self.n += 1
 
     def oldest(self) -> tuple[float, bool]:
-        """The oldest frame's time, and whether the track was seen then."""
-        return float(self.times[0]), bool(self.hit[0])
+        """The oldest frame's time, and whether the track reported its state then."""
+        return float(self.times[0]), bool(self.kept[0])
 
     def smoothed_oldest(self) -> tuple[np.ndarray, np.ndarray]:
         """The oldest frame's state (6) and covariance (6 x 6) smoothed with every later one (kernels.rts_oldest)."""
@@ -55,12 +56,12 @@ class FilterHistory:
 
     def drop_oldest(self) -> None:
         n = self.n
-        for a in (self.times, self.x, self.P, self.xp, self.Pp, self.F, self.linked, self.hit):
+        for a in (self.times, self.x, self.P, self.xp, self.Pp, self.F, self.linked, self.kept):
             a[: n - 1] = a[1:n]
         self.n -= 1
 
     def _grow(self) -> None:
-        for name in ("times", "x", "P", "xp", "Pp", "F", "linked", "hit"):
+        for name in ("times", "x", "P", "xp", "Pp", "F", "linked", "kept"):
             a = getattr(self, name)
             bigger = np.zeros((2 * len(a), *a.shape[1:]), a.dtype)
             bigger[: len(a)] = a

@@ -87,7 +87,7 @@ def test_the_filter_history_grows_and_drops_its_oldest_keeping_order():
     history.drop_oldest()
     assert len(history) == 6 and history.oldest() == (1 / 30, True)
     assert np.array_equal(history.x[:6], [s[1] for s in states[1:]])
-    assert list(history.linked[:6]) == [True, False, True, True, True, True] and list(history.hit[:6]) == [
+    assert list(history.linked[:6]) == [True, False, True, True, True, True] and list(history.kept[:6]) == [
         True,
         True,
         False,
