@@ -231,10 +231,7 @@ def _centre_surround(integral, u, v, r, inner, mid, outer, scale, bound, halves)
             c, n = _rect_count(integral, u - b, u + b, v + a, v + b)
         if n > 0.0:
             share = c / (n * scale)
-            if share < ring:
-                ring, second = share, ring
-            elif share < second:
-                second = share
+            ring, second = min(ring, share), min(second, max(ring, share))  # (no branch: the order of shares is random)
             seen += 1
     if seen == 0:  # no strip inside the image: judge by the core alone
         ring = 0.0

@@ -243,3 +243,29 @@ def test_a_disc_in_one_view_and_a_long_streak_in_the_other_keep_the_particles_wo
     ray = (ball - rig.cameras[0].centre) / np.linalg.norm(ball - rig.cameras[0].centre)
     kept, _ = explain([obj(ball, ray, 0.15)], views, ExplainSettings(radius=RADIUS))
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.01, kept[0].position
+
+
+def test_the_blobs_two_tracked_balls_overlap_in_and_no_smear_where_a_ball_has_no_blob():
+    """_held_twice: per camera, the blobs two or more predicted balls fall in (two balls touching in one blob), not a
+    blob one ball holds, nor "no blob" (a ball out of view); _whole: a ball with no blob in a camera (NaN size ratio)
+    is no smear there, one whose blob is longer than it is, and np.nan_to_num's reading of them is kept."""
+    from stereotrack.objects.explain import STREAK_LONGER, _held_twice, _whole
+
+    rig = default_rig()
+    a, b, c = np.array([-0.02, 1.5, 0.0]), np.array([0.02, 1.5, 0.0]), np.array([0.3, 1.5, 0.0])  # a, b touch; c apart
+    masks, _ = disc_masks(rig, np.array([a, b, c]))
+    views = evidence(rig, masks)
+    blobs = [v.blobs for v in views]
+    out_of_view = np.array([0.0, -1.0, 0.0])  # behind both cameras
+    held = _held_twice(np.array([a, b, c, out_of_view, out_of_view]), rig.cameras, blobs, RADIUS)
+    assert [len(s) for s in held] == [1, 1]
+    for s, v in zip(held, views):
+        (k,) = s
+        assert isinstance(k, int) and np.linalg.norm(v.blobs.centres[k] - v.camera.project(a[None])[0][0]) < 20
+    assert _held_twice(np.array([a, c]), rig.cameras, blobs, RADIUS) == [set(), set()]
+    blob_ids = np.array([[0, -1], [0, 0], [0, 0]])
+    log_ratio = np.array([[np.nan, np.nan], [STREAK_LONGER + 0.1, np.inf], [-np.inf, 0.0]])
+    got = _whole(blob_ids, [views[0].blobs] * 2, log_ratio)
+    fill_only = _whole(blob_ids, [views[0].blobs] * 2, np.zeros_like(log_ratio))
+    assert (got == (fill_only | (np.nan_to_num(log_ratio) > STREAK_LONGER))).all()
+    assert got[1].all() and not (got[0] & ~fill_only[0]).any()

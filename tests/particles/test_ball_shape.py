@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
+import pytest
 from scene_helpers import RADIUS, default_rig, disc_masks, evidence
 
 from stereotrack.particles.likelihoods.ball_shape import BallShape
@@ -169,3 +172,90 @@ def test_a_moving_ball_half_hidden_by_fingers_scores_high_and_the_edge_of_a_wall
             if all(abs(q[0] - 360) < 8 and 80 < q[1] < 400 or abs(q[1] - 60) < 8 and 380 < q[0] < 580 for q in uv):
                 edge.append(p)
     assert len(edge) > 20 and shape(np.array(edge), views, None).max() < 0.05
+
+
+def _count(integral, x_lo, x_hi, y_lo, y_hi):
+    """(set, pixels) of the pixels whose centres lie in the rectangle, clipped (kernels._rect_count, plain Python)."""
+    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+    x0, x1 = min(max(math.ceil(x_lo), 0), w), min(max(math.floor(x_hi) + 1, 0), w)
+    y0, y1 = min(max(math.ceil(y_lo), 0), h), min(max(math.floor(y_hi) + 1, 0), h)
+    if x1 <= x0 or y1 <= y0:
+        return 0.0, 0.0
+    return float(integral[y1, x1] - integral[y0, x1] - integral[y1, x0] + integral[y0, x0]), float((x1 - x0) * (y1 - y0))
+
+
+def _squares(integral, u, v, offsets, half):
+    c, a = np.sum([_count(integral, u + ox - half, u + ox + half, v + oy - half, v + oy + half) for ox, oy in offsets], axis=0)
+    return c / a if a > 0 else 0.0
+
+
+def _disc_reference(integral, u, v, r, scale, bound, halves, inner=0.7, mid=1.2, outer=1.8):
+    """kernels._centre_surround spelled out in plain Python: core, the ring's second-emptiest strip of four (sorted),
+    sides, corners and (``halves``) the better half."""
+    hc = max(inner * r, 0.5)
+    c_in, a_in = _count(integral, u - hc, u + hc, v - hc, v + hc)
+    if a_in == 0.0:
+        return 0.0
+    core = c_in / (a_in * scale)
+    if max(core, 0.8 * min(1.0, 2.0 * core) if halves else 0.0) <= bound:
+        return core
+    a, b = mid * r, outer * r
+    strips = [(u - b, u - a, v - b, v + b), (u + a, u + b, v - b, v + b), (u - b, u + b, v - b, v - a), (u - b, u + b, v + a, v + b)]
+    shares = sorted(c / (n * scale) for c, n in (_count(integral, *s) for s in strips) if n > 0)
+    ring = 0.0 if not shares else shares[0] if len(shares) == 1 else shares[1]
+    half, d = max(0.12 * r, 0.5), 0.85 * r
+    sides = _squares(integral, u, v, [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)], half) / scale
+    corners = _squares(integral, u, v, [(d, d), (-d, d), (d, -d), (-d, -d)], half) / scale
+    shown = 0.0
+    for sy in (-1.0, 1.0) if halves else ():
+        c, n = _count(integral, u - hc, u + hc, min(v, v + sy * hc), max(v, v + sy * hc))
+        cs, ns = _count(integral, u - half, u + half, v + sy * 0.85 * r - half, v + sy * 0.85 * r + half)
+        if n > 0.0 and ns > 0.0:
+            shown = max(shown, 0.8 * (c / (n * scale)) * (cs / (ns * scale)))
+    clear = (1.0 - corners) * (1.0 - ring)
+    return max(core * sides * clear, shown * clear * clear)
+
+
+def test_the_compiled_disc_look_matches_its_plain_python_reference():
+    """The likelihood's look at a disc in the soft colour map and the moving map, against _disc_reference on random
+    blobs, specks and walls: particles on blobs, beside them, on the image's border and off it (strips clipped or
+    outside), so the ring's strips come in every order and with ties (kernels._centre_surround keeps the
+    second-emptiest without branches)."""
+    from stereotrack.kernels import project_points
+    from stereotrack.particles.kernels import ball_shape_likelihood
+
+    rng = np.random.default_rng(7)
+    h, w, f, radius, floor = 120, 160, 100.0, 0.04, 0.04
+    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    cam = (np.eye(3), np.zeros(3), K, np.zeros(12), np.eye(3))
+    no_streaks = (np.zeros((1, 1), np.int32), np.zeros(1, np.int64), 1, np.zeros(0, np.bool_), np.zeros(0), np.zeros((0, 2)), np.zeros(0))
+    for trial in range(6):
+        soft, moving = np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint8)
+        for _ in range(5):  # discs of every size, some cut by the border, with p from 0 to 255
+            cx, cy, rr = rng.integers(-5, w + 5), rng.integers(-5, h + 5), int(rng.integers(1, 15))
+            cv2.circle(soft, (int(cx), int(cy)), rr, int(rng.integers(60, 256)), -1)
+            cv2.circle(moving, (int(cx + rng.integers(-3, 4)), int(cy)), rr, 1, -1)
+        if trial % 2:
+            soft[:, : w // 3] = 200  # a wall of the colour, still
+        speck = rng.integers(0, [w, h], size=(20, 2))
+        moving[speck[:, 1], speck[:, 0]] = 1  # one-pixel moving specks
+        colour, motion = cv2.integral(soft, sdepth=cv2.CV_32S), cv2.integral(moving, sdepth=cv2.CV_32S)
+        uv = np.vstack([rng.uniform(-10, [w + 10, h + 10], size=(300, 2)), rng.uniform(0, [w, h], size=(300, 2)).round()])
+        z = rng.uniform(0.3, 3.0, len(uv))
+        positions = np.column_stack([(uv[:, 0] - w / 2) * z / f, (uv[:, 1] - h / 2) * z / f, z])
+        for use_moving in (False, True):
+            out = np.ones(len(positions))
+            ball_shape_likelihood(
+                out, positions, *cam, colour, 255.0, motion, use_moving, radius, 0.7, 1.2, 1.8, floor, np.zeros(3),
+                np.zeros((0, 3)), np.zeros(0), *no_streaks,
+            )  # fmt: skip
+            projected, _, depth = project_points(positions, *cam)  # (pixels on the grid exactly: as the kernel rounds them)
+            for i, ((u, v), z, o) in enumerate(zip(projected, depth, out)):
+                if not (0 <= u < w and 0 <= v < h):
+                    assert o == floor
+                    continue
+                r = 0.5 * (K[0, 0] + K[1, 1]) * radius / z
+                best = max(_disc_reference(colour, u, v, r, 255.0, floor, False), floor)
+                if use_moving:
+                    best = max(best, _disc_reference(motion, u, v, r, 1.0, best, True))
+                assert o == pytest.approx(best, rel=1e-12, abs=1e-15), (trial, use_moving, i)
