@@ -60,7 +60,7 @@ class TracksCsvSink:
 
     def _smooth(self, tr: TrackEstimate) -> None:
         """A track's smoothed state at a held frame takes the place of its row's (when it has one there)."""
-        for held, (_, position, covariance) in frames_of_hits(self._held, (tr.smoothed,)):
+        for held, (_, position, covariance) in frames_of_hits(self._held, tr.smoothed):
             for row in held[2]:
                 if row[2] == tr.track_id and row[6] == tr.target:
                     row[3], row[4] = position, covariance

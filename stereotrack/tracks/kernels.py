@@ -105,7 +105,8 @@ def rts_oldest(xf, Pf, xp, Pp, F, linked):
         C_k = Pf_k F_k+1' Pp_k+1^-1
         xs_k = xf_k + C_k (xs_k+1 - xp_k+1)
         Ps_k = Pf_k + C_k (Ps_k+1 - Pp_k+1) C_k'
-    past a break the smoothing starts over from the filtered state. Returns (xs_0, Ps_0)."""
+    past a break (or a prediction whose covariance is singular) the smoothing starts over from the filtered state.
+    Returns (xs_0, Ps_0)."""
     K = xf.shape[0]
     xs = xf[K - 1].copy()
     Ps = Pf[K - 1].copy()
@@ -114,7 +115,13 @@ def rts_oldest(xf, Pf, xp, Pp, F, linked):
             xs = xf[k].copy()
             Ps = Pf[k].copy()
             continue
-        C = Pf[k] @ F[k + 1].T @ np.linalg.inv(Pp[k + 1])
+        try:
+            Pinv = np.linalg.inv(Pp[k + 1])
+        except Exception:  # a prediction certain along some axis (accel_noise and init_speed_sigma 0): no gain, start over
+            xs = xf[k].copy()
+            Ps = Pf[k].copy()
+            continue
+        C = Pf[k] @ F[k + 1].T @ Pinv
         xs = xf[k] + C @ (xs - xp[k + 1])
         Ps = Pf[k] + C @ (Ps - Pp[k + 1]) @ C.T
     return xs, Ps

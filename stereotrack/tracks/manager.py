@@ -515,7 +515,7 @@ class TrackManager:
 
     def _smoothed(self, tr: _Track, time: float) -> tuple:
         """Keep this frame's state; once a frame is smooth_time old, its state smoothed with every later one of the
-        track's (rts_oldest), as (time, position, 3 x 3 covariance), given once; () while none is that old, for a frame
+        track's (rts_oldest), each as (time, position, 3 x 3 covariance), given once, oldest first; () while none is that old, for a frame
         it was reported where a hand caught it (it keeps that), for a tentative track (its tentative hits are smoothed the same once it
         is confirmed, while they are that recent) or with smooth_time 0.
 
@@ -526,16 +526,19 @@ class TrackManager:
         if window <= 0:
             return ()
         tr.past.append(time, tr.x, tr.P, tr.link, not self._caught_below_launch(tr, tr.x))
-        oldest, kept = tr.past.oldest()
-        if oldest > time - window + _EPS_TIME:
-            return ()
-        # A frame it was missed and reported where a hand caught it keeps that (hands tune seed 6: smoothed on down the
-        # parabola, 0.17 m off); one it coasted through on its path is smoothed between the frames it was seen in
-        # (fast_ball tune seeds 0-59: median 0.919 without, 0.936 with).
-        smooth = tr.confirmed and len(tr.past) >= 2 and kept
-        xs, Ps = tr.past.smoothed_oldest() if smooth else (None, None)
-        tr.past.drop_oldest()
-        return (oldest, xs[:3].copy(), Ps[:3, :3].copy()) if smooth else ()
+        revised = []
+        # Every frame that is smooth_time old now, not one a frame: after a slower frame (a live frame skipped, a gap)
+        # several are, and one a frame would leave the rest ever later, past the tracks.csv hold.
+        while len(tr.past) and tr.past.oldest()[0] <= time - window + _EPS_TIME:
+            oldest, kept = tr.past.oldest()
+            # A frame it was missed and reported where a hand caught it keeps that (hands tune seed 6: smoothed on down
+            # the parabola, 0.17 m off); one it coasted through on its path is smoothed between the frames it was seen in
+            # (fast_ball tune seeds 0-59: median 0.919 without, 0.936 with).
+            if tr.confirmed and len(tr.past) >= 2 and kept:
+                xs, Ps = tr.past.smoothed_oldest()
+                revised.append((oldest, xs[:3].copy(), Ps[:3, :3].copy()))
+            tr.past.drop_oldest()
+        return tuple(revised)
 
     def _caught_below_launch(self, tr: _Track, x: np.ndarray) -> bool:
         """Is this track, missed at state ``x``, a flying ball lost on its way down past the height it was thrown from?

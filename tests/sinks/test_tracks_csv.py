@@ -91,8 +91,8 @@ def test_each_row_is_its_tracks_smoothed_state_at_its_frame(tmp_path):
             sink.write(FrameResult(FramePair(i, (), (i / FPS,)), tracks=tracks))
             for tr in tracks:
                 filtered[i] = tr.position
-                if tr.smoothed:
-                    smoothed[round(tr.smoothed[0] * FPS)] = tr.smoothed[1]
+                for time, position, _ in tr.smoothed:
+                    smoothed[round(time * FPS)] = position
     finally:
         sink.close()
     rows = read_tracks(tmp_path / "t.csv")

@@ -398,7 +398,7 @@ class RerunSink:
                 pending.tracks = (*pending.tracks, early)
                 sent.append(pending)
         for t in result.tracks:
-            for (_, pending), (_, position, covariance) in frames_of_hits(self._recent, (t.smoothed,) if t.smoothed else ()):
+            for (_, pending), (_, position, covariance) in frames_of_hits(self._recent, t.smoothed):
                 mine = [k for k, shown in enumerate(pending.tracks) if shown.track_id == t.track_id and shown.target == t.target]
                 for k in mine:
                     pending.tracks = (
