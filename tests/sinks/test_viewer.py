@@ -651,3 +651,25 @@ def test_a_track_confirmed_later_is_shown_from_its_first_hits_as_in_tracks_csv(t
         assert any(lb.startswith("#1 ") for lb in labels)  # the frame's own tracks stay
     centres = np.array(latest(rows["world/tracks"], "Ellipsoids3D:centers", 1)).reshape(-1, 3)
     assert np.min(np.linalg.norm(centres - (late + 0.01), axis=1)) < 1e-5
+
+
+@pytest.mark.parametrize("every", [1, 2])
+def test_a_tracks_smoothed_state_is_shown_at_its_frame_even_when_it_comes_with_a_frame_not_logged(tmp_path, every):
+    """A track's smoothed state at an earlier frame (TrackEstimate.smoothed) takes that frame's place in the viewer as
+    in tracks.csv, also when it comes with a frame the viewer does not log (--viz-every 2: half of them were lost)."""
+    from stereotrack.sinks.viewer.sink import RerunSink, VizOutputs
+
+    rig, rng = make_rig(), np.random.default_rng(5)
+    results = [make_result(rig, f, rng) for f in range(8)]
+    revised = np.array([0.3, -0.2, 2.5])
+    tracks = tuple(
+        replace(t, smoothed=((results[2].frame.time, revised, np.eye(3) * 1e-4),)) if t.track_id == 1 else t for t in results[5].tracks
+    )
+    results[5] = replace(results[5], tracks=tracks)
+    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "s.rrd"), VizSettings(every=every))
+    for r in results:
+        sink.write(r)
+    sink.close()
+    rows = read_rrd(tmp_path / "s.rrd")
+    centres = np.array(latest(rows["world/tracks"], "Ellipsoids3D:centers", 2)).reshape(-1, 3)
+    assert np.min(np.linalg.norm(centres - revised, axis=1)) < 1e-5

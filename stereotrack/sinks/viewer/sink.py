@@ -318,8 +318,11 @@ class RerunSink:
             self._worker_error = exc
 
     def _log_frame(self, result: FrameResult, now: float, log: bool, fps: float | None) -> None:
-        """One frame in the logging thread: the trails follow it; a logged frame joins the batch."""
+        """One frame in the logging thread: the trails follow it, its revisions amend the logged frames; a logged frame
+        joins the batch."""
         self._follow_trails(result, now)
+        # Revisions of logged frames (a track confirmed, a state smoothed) come with any frame, logged or not.
+        self._amend(result)
         if not log:
             return
         s = self.settings
@@ -331,7 +334,6 @@ class RerunSink:
             self._batch_started = time.monotonic()
         pending = self._gather(result, now)
         self._batch.append(pending)
-        self._amend(result)
         self._recent.append((result.frame.time, pending))
         while self._recent and self._recent[0][0] < result.frame.time - self._hindsight:
             self._recent.popleft()
