@@ -48,7 +48,7 @@ def coverage_centres(blobs: Blobs, ids: np.ndarray, image: np.ndarray, behind: n
         return out
     ls, h, w = blobs.label_scale, image.shape[0], image.shape[1]
     for n, k in enumerate(np.asarray(ids, dtype=int)):
-        if blobs.axes[k, 1] >= THIN:
+        if not np.isfinite(blobs.axes[k]).all() or blobs.axes[k, 1] >= THIN:  # (a blob's moments unmeasured: none to move)
             continue
         grow = int(np.ceil((blobs.axes[k, 1] + MARGIN) / SCALE))  # cells of the background's grid
         x0, y0, x1, y1 = (int(c) * ls for c in blobs.boxes[k])  # evidence pixels, end exclusive

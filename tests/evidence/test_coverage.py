@@ -76,3 +76,10 @@ def test_camera_evidence_takes_the_changes_centre_with_a_background_and_the_mask
     ids = np.array([0])
     assert np.abs(with_background.streak_centres(ids)[0] - (120.0, 80.0)).max() < 0.25
     assert np.array_equal(without.streak_centres(ids), without.blobs.centres[ids])
+
+
+def test_a_blob_with_unmeasured_moments_keeps_its_mask_centroid():
+    image, wall = _streak()
+    blobs = _blobs(image)
+    blobs.axes[0] = np.nan  # (a blob whose moments could not be measured)
+    assert np.isnan(coverage_centres(blobs, np.array([0]), halved(image), halved(wall))).all()
