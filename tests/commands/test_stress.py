@@ -121,7 +121,9 @@ def test_ctrl_c_ends_in_seconds_kills_the_workers_and_keeps_nothing_half_done(tm
     # that only took note, and the pool waited for them for ever.
     script = Path(sys.executable).parent / "stereotrack"
     command = [str(script)] if script.is_file() else [sys.executable, "-m", "stereotrack"]
-    args = ["stress", "--set", "report", "--seeds", "2", "--categories", "hue_wall", "--jobs", "2", "--cache", str(cache)]
+    # Four scenes for two workers: under load one worker could finish its only scene before the other started, and
+    # the run ended before both were seen rendering (it flaked so once); with more queued both keep rendering.
+    args = ["stress", "--set", "report", "--seeds", "4", "--categories", "hue_wall", "--jobs", "2", "--cache", str(cache)]
     proc = subprocess.Popen(
         [*command, *args, "--docs", str(doc)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled
     )
