@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,12 +36,12 @@ class TracksCsvSink:
         self._out = AtomicOutput(self.path, "tracks file")
         self._file = self._out.open("w", newline="")
         self._file.write(",".join(HEADER) + "\n")
-        self._held: deque[tuple[float, int, list[list]]] = deque()  # (time, index, rows) of the frames not written yet, oldest first
+        self._held: deque[tuple[float, int, list[_Row]]] = deque()  # (time, index, rows) of the frames not written yet, oldest first
         self.rows = 0
 
     def write(self, result: FrameResult) -> None:
         f = result.frame
-        rows = [[f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target] for tr in result.confirmed]
+        rows = [_Row(f.index, f.time, tr.track_id, tr.position, tr.covariance, tr.n_particles, tr.target) for tr in result.confirmed]
         self._held.append((f.time, f.index, rows))
         for tr in result.confirmed:
             if tr.before:
@@ -56,19 +57,19 @@ class TracksCsvSink:
         """A track confirmed this frame: each of its tentative hits joins the held frame of its time (always there,
         when the hold covers the config's confirm_time: hold_for)."""
         for held, (time, position, covariance, n_particles) in frames_of_hits(self._held, tr.before):
-            held[2].append([held[1], time, tr.track_id, position, covariance, n_particles, tr.target])
+            held[2].append(_Row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
 
     def _smooth(self, tr: TrackEstimate) -> None:
         """A track's smoothed state at a held frame takes the place of its row's (when it has one there)."""
         for held, (_, position, covariance) in frames_of_hits(self._held, tr.smoothed):
             for row in held[2]:
-                if row[2] == tr.track_id and row[6] == tr.target:
-                    row[3], row[4] = position, covariance
+                if row.track_id == tr.track_id:  # (ids are unique across targets)
+                    row.position, row.covariance = position, covariance
 
     def _flush_oldest(self) -> None:
         rows = self._held.popleft()[2]
         if rows:
-            self._file.writelines(_row(*row) for row in rows)
+            self._file.writelines(row.line() for row in rows)
             self.rows += len(rows)
 
     def close(self) -> None:
@@ -84,8 +85,9 @@ class TracksCsvSink:
 
 
 def frames_of_hits(frames: Iterable[tuple], hits: Sequence[tuple]) -> Iterator[tuple[tuple, tuple]]:
-    """Each of a confirmed track's tentative hits (``TrackEstimate.before``, time first) with the frame of its time
-    among ``frames`` (tuples, time first), both in time order. Each hit takes a frame of its own, so two frames of one
+    """Each of a track's revisions of earlier frames (its tentative hits, ``TrackEstimate.before``, or its smoothed
+    states, ``TrackEstimate.smoothed``: tuples, time first) with the frame of its time among ``frames`` (tuples, time
+    first), both in time order. Each hit takes a frame of its own, so two frames of one
     time (a bad recording's repeated timestamp) get a hit each, not both hits in one. A hit with no frame is left out
     (the tracks.csv sink and the viewer hold only their last frames)."""
     frames = iter(frames)
@@ -107,10 +109,25 @@ def hold_for(settings: TrackSettings) -> float:
     return max(settings.confirm_time + settings.tentative_time, settings.smooth_time) + _FRAME_MARGIN
 
 
-def _row(index: int, time: float, track_id: int, position, covariance, n_particles: int, target: str) -> str:
-    sd = np.sqrt(np.clip(np.diag(covariance), 0, None))
-    x, y, z = position
-    return f"{index},{time:.6f},{track_id},{x:.5f},{y:.5f},{z:.5f},{sd[0]:.5f},{sd[1]:.5f},{sd[2]:.5f},{n_particles},{target}\n"
+@dataclass(slots=True)
+class _Row:
+    """A held row of tracks.csv; its position and covariance may still be revised (smoothed) before it is written."""
+
+    index: int
+    time: float
+    track_id: int
+    position: np.ndarray
+    covariance: np.ndarray
+    n_particles: int
+    target: str
+
+    def line(self) -> str:
+        sd = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+        x, y, z = self.position
+        return (
+            f"{self.index},{self.time:.6f},{self.track_id},{x:.5f},{y:.5f},{z:.5f},"
+            f"{sd[0]:.5f},{sd[1]:.5f},{sd[2]:.5f},{self.n_particles},{self.target}\n"
+        )
 
 
 def read_tracks(path: str | Path) -> np.ndarray:

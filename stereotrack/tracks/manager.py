@@ -514,10 +514,10 @@ class TrackManager:
         return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
 
     def _smoothed(self, tr: _Track, time: float) -> tuple:
-        """Keep this frame's state; once a frame is smooth_time old, its state smoothed with every later one of the
-        track's (rts_oldest), each as (time, position, 3 x 3 covariance), given once, oldest first; () while none is that old, for a frame
-        it was reported where a hand caught it (it keeps that), for a tentative track (its tentative hits are smoothed the same once it
-        is confirmed, while they are that recent) or with smooth_time 0.
+        """Keep this frame's state; give each frame smooth_time old by now, smoothed with every later one of the track's
+        (rts_oldest), as (time, position, 3 x 3 covariance), once, oldest first. None is given for a frame the track
+        was reported where a hand caught its ball (it keeps that), for a tentative track (its tentative hits are
+        smoothed the same once it is confirmed, while they are that recent), or with smooth_time 0.
 
         A filter's estimate at a frame knows only the frames before it: a far ball's depth, a pixel of disparity off in
         one frame, pulls the track off for several. The smoother's knows the frames after too (fast_ball tune seeds

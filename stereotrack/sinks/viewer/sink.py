@@ -401,14 +401,11 @@ class RerunSink:
                 sent.append(pending)
         for t in result.tracks:
             for (_, pending), (_, position, covariance) in frames_of_hits(self._recent, t.smoothed):
-                mine = [k for k, shown in enumerate(pending.tracks) if shown.track_id == t.track_id and shown.target == t.target]
-                for k in mine:
-                    pending.tracks = (
-                        *pending.tracks[:k],
-                        replace(pending.tracks[k], position=position, covariance=covariance),
-                        *pending.tracks[k + 1 :],
+                if any(shown.track_id == t.track_id for shown in pending.tracks):  # (ids are unique across targets)
+                    pending.tracks = tuple(
+                        replace(shown, position=position, covariance=covariance) if shown.track_id == t.track_id else shown
+                        for shown in pending.tracks
                     )
-                if mine:
                     sent.append(pending)
         sent = [p for p in sent if all(p is not b for b in self._batch)]
         if sent:
