@@ -85,7 +85,7 @@ class _Track:
     history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
     in_flight: bool = False  # gravity applies to its prediction
     parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
-    prediction: tuple | None = None  # (to time, from time, in_flight, x, P): ``predicted`` then ``update`` predict once
+    prediction: tuple | None = None  # (to time, from time, in_flight, x, P, F): ``predicted`` then ``update`` predict once
     launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
     seen_at: np.ndarray | None = None  # its position after its latest hit
     caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
@@ -162,7 +162,7 @@ class TrackManager:
         state after the previous update. Call it before ``update`` with the
         same time, e.g. to keep particles of one ball out of another ball.
         """
-        states = [self._predict(tr, time) for tr in self._tracks]
+        states = [self._predict(tr, time)[:2] for tr in self._tracks]
         seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
         return tuple(self._estimate(tr, x, P, v, self._settled(tr, x[:3])) for tr, (x, P), v in zip(self._tracks, states, seen))
 
@@ -174,8 +174,7 @@ class TrackManager:
         """
         s = self.settings
         for tr in self._tracks:
-            F = self._motion_model(time - tr.time, tr.in_flight)[0] if time > tr.time else np.eye(6)
-            tr.x, tr.P = self._predict(tr, time)
+            tr.x, tr.P, F = self._predict(tr, time)
             tr.link = (tr.x.copy(), tr.P.copy(), F)
             tr.time = time
             tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
@@ -252,16 +251,17 @@ class TrackManager:
 
     # ------------------------------------------------------------------ steps
 
-    def _predict(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray]:
+    def _predict(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The track's state and covariance predicted to ``time``, and the transition F that took it there."""
         dt = max(0.0, time - tr.time)
         if dt == 0.0:
-            return tr.x.copy(), tr.P.copy()
+            return tr.x.copy(), tr.P.copy(), np.eye(6)
         if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
-            return tr.prediction[3].copy(), tr.prediction[4].copy()
+            return tr.prediction[3].copy(), tr.prediction[4].copy(), tr.prediction[5]
         F, Q, b = self._motion_model(dt, tr.in_flight)
         x, P = kalman_predict(tr.x, tr.P, F, Q, b)
-        tr.prediction = (time, tr.time, tr.in_flight, x, P)
-        return x.copy(), P.copy()
+        tr.prediction = (time, tr.time, tr.in_flight, x, P, F)
+        return x.copy(), P.copy(), F
 
     def _motion_model(self, dt: float, in_flight: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``motion_model`` for this manager, remembered per (dt, in flight): every track of a frame shares dt."""
