@@ -81,7 +81,10 @@ SHADING_FILL = 0.6  # ... and it fills this share of the ellipse in its box
 SHADING_MIN_RADIUS = 2.5  # pixels of the background's grid: a smaller patch is a speck of texture, a switch or a knob far off
 SHADING_EDGED = 0.7  # share of a patch that must show gradient itself (the rest: filled holes)
 SHADING_SQUARE = 0.9  # a patch filling more of its box is square
-SHADING_BUSY = 0.25  # at most this share of the ring around a patch shows gradient
+# At most this share of the ring around a patch shows gradient: a lit round thing among a shelf's books is no ball. The
+# rim test (SHADING_SECTORS) rejects what is not round at all, so a ball before a sparse shelf or a frame's corner may
+# have a third of its ring busy (white_ball tune seed 29: a still ball at 0.38 in one view, missed in every frame at 0.25).
+SHADING_BUSY = 0.35
 SHADING_CONTRAST = (
     40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
 )
