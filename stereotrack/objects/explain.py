@@ -301,6 +301,7 @@ def _blurred(whole: np.ndarray, smeared: np.ndarray, blob_ids: np.ndarray, views
     return out
 
 
+STREAK_EDGE_PX = 1.0  # a long streak's mask holds the pixels its edges cross in part: a band up to 2 r + this many pixels wide
 STREAK_THINNING = math.log(2.0)  # a streak may be down to half its ball's width in range: ...
 
 
@@ -342,9 +343,18 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
 def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swept: list[np.ndarray]) -> np.ndarray:
     """Size ratios of streaks (``swept``) against their width, where a streak thinner than its ball counts as the
     ball's size: a fast ball's colour is diluted by the
-    background it swept over, most at the streak's edges, so the part in range is thinner than the ball (never wider).
+    background it swept over, most at the streak's edges, so the part in range is thinner than the ball.
     Its centroid is still the ball's mean position, which triangulates to a few centimetres at 7 m (fast_ball tune seed 4)
-    where the particles, judging the disc's size, drift 0.15 m."""
+    where the particles, judging the disc's size, drift 0.15 m.
+
+    Nor is a long streak (Blobs.swept) too wide until it is wider than the band its ball marks: 2 r pixels plus the
+    pixels its two edges cross in part (STREAK_EDGE_PX), uniform across, whose moments' semi-minor axis is
+    2 sqrt(r (r + 1) / 3) where a disc's is r. A far ball's streak (r = 1.45 pixels) is a band of 4 pixels, semi-minor
+    2.24: 0.43 in log against its radius, beyond REFINE_TOLERANCE, so its object was placed by its particles, 0.3-1 m
+    off along the ray, though its blobs lay within half a pixel of the ball in both views (fast_ball tune seed 33, 27 of
+    29 frames; seeds 3, 27, 33, 35, 44 up 0.30-0.74 with the band). A short blur's cross-section is a disc's: its
+    radius, r, is the most (hands tune seed 38: a short blur 1.36 times the ball's width, merged with something beside
+    it, is no clean view)."""
     out = log_ratio.copy()
     for j, b in enumerate(blobs):
         if b.widths is None or not len(b):
@@ -354,9 +364,12 @@ def _streaks_may_be_thin(log_ratio: np.ndarray, blob_ids: np.ndarray, blobs, swe
         streak = swept[j][ids]
         on[on] = streak
         ids = ids[streak]
-        width = b.axes[ids, 1] if b.axes is not None else b.widths[ids]  # a streak's width (short streaks' too, blobs.short_streaks)
-        ratio = out[on, j] + np.log(np.maximum(width, 0.5) / np.maximum(b.radii[ids], 0.5))  # against its width
-        out[on, j] = np.where(ratio < 0, np.minimum(ratio + STREAK_THINNING, 0.0), ratio)
+        width = np.maximum(b.axes[ids, 1] if b.axes is not None else b.widths[ids], 0.5)  # (short streaks' too, blobs.short_streaks)
+        ball = np.maximum(b.radii[ids], 0.5) * np.exp(-out[on, j])  # the ball's radius at the object's depth
+        band = 2.0 * np.sqrt(ball * (ball + STREAK_EDGE_PX) / 3.0)  # the semi-minor axis of the widest band it marks
+        band = np.where(b.swept[ids], band, ball) if b.swept is not None else ball  # (a short blur: a disc's, its radius)
+        ratio = np.where(width > band, np.log(width / band), np.minimum(np.log(width / ball) + STREAK_THINNING, 0.0))
+        out[on, j] = ratio
     return out
 
 

@@ -93,10 +93,10 @@ def test_a_thin_streak_places_its_ball_at_its_triangulated_centroid():
     assert np.linalg.norm(kept[0].position - off) < 0.01
 
 
-def _blurred(ball: np.ndarray, velocity: np.ndarray, width: float = 2.0):
+def _blurred(ball: np.ndarray, velocity: np.ndarray, width: float = 2.0, edge_px: float = 0.0):
     """The default rig, and per camera the mask of a ball swept from ``ball - velocity`` to ``ball + velocity`` during
-    the exposure (a line ``width`` ball radii wide: 2 for the whole ball, less where the background diluted its edges),
-    with its evidence, the mask moving all over."""
+    the exposure (a line ``width`` ball radii wide: 2 for the whole ball, less where the background diluted its edges,
+    plus ``edge_px`` pixels: the pixels its edges cross in part), with its evidence, the mask moving all over."""
     import cv2
 
     from stereotrack.evidence.gather import CameraEvidence
@@ -106,7 +106,9 @@ def _blurred(ball: np.ndarray, velocity: np.ndarray, width: float = 2.0):
     for cam in rig.cameras:
         m = np.zeros((cam.height, cam.width), np.uint8)
         (a, b), r = cam.project(np.array([ball - velocity, ball + velocity]))[0], cam.K[0, 0] * RADIUS / cam.depth(ball[None])[0]
-        cv2.line(m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(width * r)), cv2.LINE_8, 4)
+        cv2.line(
+            m, tuple(int(round(x * 16)) for x in a), tuple(int(round(x * 16)) for x in b), 1, int(round(width * r + edge_px)), cv2.LINE_8, 4
+        )
         masks.append(m)
     return rig, masks, tuple(CameraEvidence.from_mask(c, m, foreground=m) for c, m in zip(rig.cameras, masks))
 
@@ -121,6 +123,21 @@ def test_a_far_streak_takes_its_triangulated_centroid_where_the_particles_stray_
     off = ball - 0.3 * ball / np.linalg.norm(ball)
     kept, _ = explain([obj(off)], views, ExplainSettings(radius=RADIUS))
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.1, kept[0].position
+
+
+def test_a_far_thin_streak_whose_edge_pixels_count_takes_its_triangulated_centroid():
+    """A far ball's streak (2.4 pixels of radius at 8 m) marks every pixel its edges cross: a band 2 r + 1 pixels wide,
+    whose moments' semi-minor axis is 2 sqrt(r (r + 1) / 3) = 3.3 pixels (here 3.8), 1.5 times the ball's radius. It is
+    still the ball's streak, and its centroids triangulate to a few centimetres where the particles put the ball 0.3 m
+    near (fast_ball tune seed 33: streaks 2.1-2.2 pixels half wide of a ball of 1.45, placed by its particles)."""
+    ball = np.array([0.1, 8.0, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.15, 0.0, 0.02]), edge_px=1.0)
+    assert all(
+        v.blobs.swept[0] and v.blobs.axes[0, 1] > 1.4 * v.camera.apparent_radius(RADIUS, v.camera.depth(ball[None]))[0] for v in views
+    )
+    off = ball - 0.3 * ball / np.linalg.norm(ball)
+    kept, _ = explain([obj(off, ball / np.linalg.norm(ball), 0.3)], views, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 1 and kept[0].swept and np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
 
 
 def test_a_short_blur_of_a_moving_ball_takes_its_triangulated_centroid():
@@ -144,6 +161,21 @@ def test_a_short_blur_of_a_moving_ball_takes_its_triangulated_centroid():
     # ball's trail, which stretch its blob as a blur would.
     kept, _ = explain([obj(off, ray, 0.035)], views, ExplainSettings(radius=RADIUS, short_streaks=False))
     assert np.linalg.norm(kept[0].position - off) < 0.01 and not kept[0].swept
+
+
+def test_a_short_blur_wider_than_its_ball_is_no_clean_view():
+    """A short blur's cross-section is a disc's, not a band's: one 1.4 times as wide as its ball is a ball merged with
+    something beside it (hands tune seed 38), and its object keeps the particles' word (a long streak may be as wide as
+    the band a ball marks, 2 sqrt(r (r + 1) / 3) > 1.15 r, in any size)."""
+    ball = np.array([0.05, 1.5, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.025, 0.0, 0.0]), width=2.8)
+    for v in views:
+        (a, b), swept = v.blobs.axes[0], v.blobs.swept[0]
+        assert 1.2 < a / b < 1.9 and not swept and b > 1.35 * v.camera.apparent_radius(RADIUS, v.camera.depth(ball[None]))[0], (a, b)
+    ray = ball / np.linalg.norm(ball)
+    off = ball - 0.05 * np.linalg.norm(ball) * ray
+    kept, _ = explain([obj(off, ray, 0.035)], views, ExplainSettings(radius=RADIUS))
+    assert np.linalg.norm(kept[0].position - off) < 0.01 and not kept[0].swept, kept[0].position
 
 
 def test_a_far_ball_takes_its_triangulated_centroids_where_its_particles_stray_along_the_ray_as_far_as_they_claim():
