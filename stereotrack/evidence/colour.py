@@ -1,4 +1,4 @@
-"""Target colours: HSV masks, integral images, and the HSV range that holds a ball's pixels (colour learn's).
+"""Target colours: HSV masks, integral images, and learning a range from a region.
 
 Masks are computed once per frame per camera per target; the likelihood then
 counts mask pixels in any window in O(1) from the integral image.
@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 
 from ..config import Target
+from ..errors import StereotrackError
 from .kernels import range_mask
 
 
@@ -94,6 +95,13 @@ def streak_range(target: Target) -> Target:
 # --------------------------------------------------------------------------- learning
 
 
+@dataclass(frozen=True)
+class LearnedRange:
+    target: Target
+    roi_coverage: float  # share of the region's pixels inside the learned range
+    background_coverage: float  # share of the pixels outside the region inside the range
+
+
 def _hue_interval(h: np.ndarray, lo_pct: float, hi_pct: float) -> tuple[int, int]:
     """Percentile interval of hues on the 180-step circle, cut at the emptiest hue."""
     hist = np.bincount(h.ravel(), minlength=180)
@@ -101,6 +109,13 @@ def _hue_interval(h: np.ndarray, lo_pct: float, hi_pct: float) -> tuple[int, int
     shifted = (h.astype(int) - cut) % 180
     a, b = np.percentile(shifted, [lo_pct, hi_pct])
     return int((np.floor(a) + cut) % 180), int((np.ceil(b) + cut) % 180)
+
+
+def saturated_threshold(saturation: np.ndarray) -> float:
+    """The saturation that splits a region into ball and background: Otsu's threshold (a coloured ball on a grey
+    background is the saturated mode), at least 40 (greys are never the ball's colour)."""
+    thr, _ = cv2.threshold(np.ascontiguousarray(saturation, np.uint8).reshape(-1, 1), 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    return max(float(thr), 40.0)
 
 
 def range_of(
@@ -119,3 +134,35 @@ def range_of(
     lo = (int(h_lo), int(max(0, s_lo - margin[1])), int(max(0, v_lo - margin[2])))
     hi = (int(h_hi), int(min(255, s_hi + margin[1])), int(min(255, v_hi + margin[2])))
     return Target(name=name, hsv_min=lo, hsv_max=hi, radius=radius)
+
+
+def learn_target(
+    image_bgr: np.ndarray,
+    roi: tuple[int, int, int, int],
+    name: str,
+    radius: float = Target.radius,
+    margin: tuple[int, int, int] = (4, 25, 25),
+    percentiles: tuple[float, float] = (2.0, 98.0),
+) -> LearnedRange:
+    """Learn an HSV range from the pixels of ``roi`` (x, y, w, h) that look like the ball.
+
+    Keeps the saturated pixels of the region (the ball, not the background
+    around it), takes robust percentiles per channel (hue on the circle, so a
+    red ball gives a wrapping range) and widens them by ``margin``.
+    """
+    x, y, w, h = roi
+    H, W = image_bgr.shape[:2]
+    if w <= 0 or h <= 0 or x < 0 or y < 0 or x + w > W or y + h > H:
+        raise StereotrackError(f"--roi {x},{y},{w},{h} is not inside the {W}x{H} image")
+    hsv = to_hsv(image_bgr)
+    patch = hsv[y : y + h, x : x + w].reshape(-1, 3)
+    ball = patch[patch[:, 1] > saturated_threshold(patch[:, 1])]
+    if len(ball) < 10:
+        raise StereotrackError(f"--roi {x},{y},{w},{h}: too few coloured pixels in the region (draw the box tightly around the ball)")
+    target = range_of(ball, name, radius, margin, percentiles)
+    mask = target_mask(hsv, target)
+    inside = np.zeros(mask.shape, bool)
+    inside[y : y + h, x : x + w] = True
+    roi_cov = float(mask[inside].mean())
+    bg_cov = float(mask[~inside].mean()) if (~inside).any() else 0.0
+    return LearnedRange(target, roi_cov, bg_cov)

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from stereotrack.config import Target
-from stereotrack.evidence.colour import camera_masks, range_of, target_mask, to_hsv
+from stereotrack.errors import StereotrackError
+from stereotrack.evidence.colour import camera_masks, learn_target, target_mask, to_hsv
 
 
 def hsv_image(h, s, v, shape=(4, 4)):
@@ -34,9 +35,7 @@ def test_camera_masks_integral_counts_pixels():
 
 
 @pytest.mark.parametrize("bgr", [(180, 60, 255), (30, 30, 220), (40, 140, 255)])
-def test_a_range_learnt_from_a_balls_pixels_covers_the_ball_not_the_background(bgr):
-    """range_of (colour learn's range): robust percentiles per channel, the hue on its circle, so a red ball's range
-    wraps (the second case) and still holds the ball and none of a grey room."""
+def test_learn_target_covers_ball_not_background(bgr):
     rng = np.random.default_rng(4)
     img = rng.integers(90, 170, (120, 160, 1), dtype=np.uint8).repeat(3, axis=2)  # grey texture
     ball = np.zeros((120, 160), np.uint8)
@@ -44,8 +43,13 @@ def test_a_range_learnt_from_a_balls_pixels_covers_the_ball_not_the_background(b
     shade = np.clip(rng.normal(1.0, 0.12, (120, 160)), 0.6, 1.2)[..., None]
     coloured = np.clip(np.array(bgr, float) * shade, 0, 255).astype(np.uint8)
     img[ball == 1] = coloured[ball == 1]
-    hsv = to_hsv(img)
-    target = range_of(hsv[ball == 1], "ball")
-    mask = target_mask(hsv, target)
+    learned = learn_target(img, (62, 42, 36, 36), "ball")
+    mask = target_mask(to_hsv(img), learned.target)
     assert mask[ball == 1].mean() > 0.95
     assert mask[ball == 0].mean() < 0.01
+    assert learned.background_coverage < 0.01
+
+
+def test_learn_target_rejects_roi_outside_image():
+    with pytest.raises(StereotrackError, match="not inside"):
+        learn_target(np.zeros((10, 10, 3), np.uint8), (5, 5, 10, 10), "x")
