@@ -144,7 +144,8 @@ def learn_target(
     margin: tuple[int, int, int] = (4, 25, 25),
     percentiles: tuple[float, float] = (2.0, 98.0),
 ) -> LearnedRange:
-    """Learn an HSV range from the pixels of ``roi`` (x, y, w, h) that look like the ball.
+    """Learn an HSV range from the pixels of ``roi`` (x, y, w, h) that look like the ball. (``colour learn`` uses
+    learn.py; this stays a public name of 0.1, ``stereotrack.colour.learn_target``, for users' scripts.)
 
     Keeps the saturated pixels of the region (the ball, not the background
     around it), takes robust percentiles per channel (hue on the circle, so a
