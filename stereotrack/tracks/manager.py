@@ -39,8 +39,9 @@ from scipy.optimize import linear_sum_assignment
 from ..camera import Rig
 from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
-from .flight import fit_parabola
+from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
+from .motion import motion_model
 from .smoothing import FilterHistory
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
@@ -97,36 +98,6 @@ class _Track:
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
     past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
-
-
-def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Constant-velocity transition over ``dt`` seconds: (F 6x6, Q 6x6, b 6) with x' = F x + b.
-
-    Q is the continuous white-acceleration model (q = accel_noise m^2/s^3),
-    b the known gravity acceleration (zero when ``gravity`` is None).
-    """
-    i = np.arange(3)
-    F = np.eye(6)
-    F[i, i + 3] = dt
-    q = accel_noise
-    Q = np.zeros((6, 6))
-    Q[i, i] = q * dt**3 / 3
-    Q[i, i + 3] = Q[i + 3, i] = q * dt**2 / 2
-    Q[i + 3, i + 3] = q * dt
-    b = np.zeros(6)
-    if gravity is not None:
-        b[:3] = 0.5 * gravity * dt * dt
-        b[3:] = gravity * dt
-    return F, Q, b
-
-
-def in_free_flight(times: np.ndarray, positions: np.ndarray, gravity: np.ndarray) -> bool:
-    """Does a parabola fitted to these positions accelerate like gravity (within half of g) rather than not at all?"""
-    t = times - times.mean()
-    A = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
-    coef, *_ = np.linalg.lstsq(A, positions, rcond=None)
-    accel = coef[2]
-    return bool(np.linalg.norm(accel - gravity) < 0.5 * np.linalg.norm(gravity))
 
 
 class TrackManager:
