@@ -17,6 +17,15 @@ import numpy as np
 from ..results import Parabola
 
 
+def in_free_flight(times: np.ndarray, positions: np.ndarray, gravity: np.ndarray) -> bool:
+    """Does a parabola fitted to these positions accelerate like gravity (within half of g) rather than not at all?"""
+    t = times - times.mean()
+    A = np.stack([np.ones_like(t), t, 0.5 * t * t], axis=1)
+    coef, *_ = np.linalg.lstsq(A, positions, rcond=None)
+    accel = coef[2]
+    return bool(np.linalg.norm(accel - gravity) < 0.5 * np.linalg.norm(gravity))
+
+
 def fit_parabola(times: np.ndarray, positions: np.ndarray, gravity: np.ndarray) -> Parabola:
     """Least-squares position and velocity at the latest time, with gravity as the known acceleration.
 
