@@ -41,7 +41,6 @@ def main() -> int:
     p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
     args = p.parse_args()
 
-    from stereotrack.frames import FramePair
     from stereotrack.pipeline.bench import bench_case
     from stereotrack.pipeline.tracker import warm_up
     from stereotrack.simulation.presets import make_preset
@@ -55,10 +54,7 @@ def main() -> int:
         w, h = (int(x) for x in size.split("x"))
         spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)
         renderer = SceneRenderer(spec)
-        frames = []
-        for i in range(spec.n_frames):
-            images, _ = renderer.render(i)
-            frames.append(FramePair(i, tuple(images), tuple(renderer.time(i) for _ in images)))
+        frames = [renderer.pair(i) for i in range(spec.n_frames)]
         base = spec.config()
         # Below 1280 pixels wide the default already reads every pixel.
         variants = [(label, changes) for label, changes in VARIANTS if w >= 1280 or "evidence_scale" not in changes]

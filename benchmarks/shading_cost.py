@@ -33,7 +33,6 @@ def main() -> int:
     args = p.parse_args()
 
     from stereotrack.evidence.motion import SCALE, halved, shading
-    from stereotrack.frames import FramePair
     from stereotrack.pipeline.bench import bench_case
     from stereotrack.pipeline.tracker import SHADING_NEAR, Tracker, warm_up
     from stereotrack.simulation.render import SceneRenderer
@@ -47,10 +46,7 @@ def main() -> int:
     for seed in args.seeds:
         spec = stress_scene("white_ball", seed)
         renderer = SceneRenderer(spec)
-        frames = []
-        for i in range(min(args.frames, spec.n_frames)):
-            images, _ = renderer.render(i)
-            frames.append(FramePair(i, tuple(images), tuple(renderer.time(i) for _ in images)))
+        frames = [renderer.pair(i) for i in range(min(args.frames, spec.n_frames))]
         base = spec.config()
         config = replace(base, tracker=replace(base.tracker, particles=2000, alpha=0.2))
         target, s = config.targets[0], config.tracker

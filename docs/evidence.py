@@ -25,7 +25,6 @@ FRAME = 60  # two seconds in: the background and colour models have learnt the r
 
 
 def main() -> int:
-    from stereotrack.frames import FramePair
     from stereotrack.pipeline.tracker import Tracker
     from stereotrack.simulation.presets import make_preset
     from stereotrack.simulation.render import SceneRenderer
@@ -35,8 +34,7 @@ def main() -> int:
     config = spec.config()
     tracker = Tracker(renderer.rig, config)
     for i in range(FRAME + 1):
-        images, _ = renderer.render(i)
-        result = tracker.step(FramePair(i, tuple(images), (renderer.time(i),) * len(images)))
+        result = tracker.step(renderer.pair(i))
     cam = renderer.rig.cameras[0]
     image = result.frame.images[0].copy()
     for track in result.confirmed:

@@ -34,7 +34,6 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..console import Progress
-    from ..frames import FramePair
     from ..pipeline.bench import bench_case
     from ..simulation.presets import make_preset
     from ..simulation.render import SceneRenderer
@@ -49,9 +48,7 @@ def run(args) -> int:
         bar = Progress(spec.n_frames, f"rendering {w}x{h}", "frames")
         frames = []
         for i in range(spec.n_frames):
-            images, _ = renderer.render(i)
-            t = renderer.time(i)
-            frames.append(FramePair(i, tuple(images), tuple(t for _ in images)))
+            frames.append(renderer.pair(i))
             bar.update()
         bar.close()
         base = spec.config()

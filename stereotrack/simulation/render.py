@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..frames import FramePair
 from .spec import CameraResponse, Occluder, SceneSpec
 from .stage import pixel_rays, render_stage
 
@@ -136,6 +137,11 @@ class SceneRenderer:
     def stage_tags(self, camera: int) -> np.ndarray | None:
         """H x W material tags of the stage as camera ``camera`` sees it (shapes.TAG_*), or None without a stage."""
         return self._cams[camera].tags
+
+    def pair(self, frame: int) -> FramePair:
+        """Frame ``frame`` as a tracker takes it: every camera's image, all stamped with the frame's time."""
+        images, _ = self.render(frame)
+        return FramePair(frame, tuple(images), (self.time(frame),) * len(images))
 
     def render(self, frame: int) -> tuple[tuple[np.ndarray, ...], list[tuple[int, float, float, float, int]]]:
         spec = self.spec
