@@ -81,10 +81,7 @@ SHADING_FILL = 0.6  # ... and it fills this share of the ellipse in its box
 SHADING_MIN_RADIUS = 2.5  # pixels of the background's grid: a smaller patch is a speck of texture, a switch or a knob far off
 SHADING_EDGED = 0.7  # share of a patch that must show gradient itself (the rest: filled holes)
 SHADING_SQUARE = 0.9  # a patch filling more of its box is square
-# At most this share of the ring around a patch shows gradient: a lit round thing among a shelf's books is no ball. The
-# rim test (SHADING_SECTORS) rejects what is not round at all, so a ball before a sparse shelf or a frame's corner may
-# have a third of its ring busy (white_ball tune seed 29: a still ball at 0.38 in one view, missed in every frame at 0.25).
-SHADING_BUSY = 0.35
+SHADING_BUSY = 0.25  # at most this share of the ring around a patch shows gradient
 SHADING_CONTRAST = (
     40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
 )
@@ -95,11 +92,10 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     """Where a white or grey ball (``target`` of every hue) shows by its shading alone: the pixels of ``image``
     (BGR uint8 on the background's grid) whose brightness changes by SHADING_MIN grey levels per pixel or more and
     whose colour could be the ball's (saturation at most the range's top, value at least SHADING_VALUE of its bottom),
-    with the holes smaller than a disc of SHADING_HOLE x ``near_px`` filled (a ball's lit centre is flat), opened by
-    a 5-pixel disc (the thin links a cable, a frame's edge or a wall's mottling make between a ball's rim and the
-    room), kept in the patches round like a ball and as wide as one between ``far_px`` and ``near_px`` radii (the
-    ball's apparent radius on this grid at the farthest and nearest depths) whose rim closes round them. A wall's
-    edges, a shelf's books and a floor's texture are lines, networks and specks; a flat wall is empty. uint8 0/1."""
+    with the holes smaller than a disc of SHADING_HOLE x ``near_px`` filled (a ball's lit centre is flat), kept in
+    the patches round like a ball and as wide as one between ``far_px`` and ``near_px`` radii (the ball's apparent
+    radius on this grid at the farthest and nearest depths). A wall's edges, a shelf's books and a floor's texture are
+    lines, networks and specks; a flat wall is empty. uint8 0/1."""
     grey = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (3, 3), 0).astype(np.float32)
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
@@ -115,7 +111,6 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     fill[0] = False
     if fill.any():
         out[fill[labels]] = 1
-    out = cv2.morphologyEx(out, cv2.MORPH_OPEN, _DISC5)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(out, connectivity=8)
     x, y, bw, bh, area = stats.T
     wide, narrow = np.maximum(bw, bh) / 2.0, np.minimum(bw, bh) / 2.0
@@ -140,36 +135,9 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
         np.maximum.at(top, mine, grey[candidates])
         np.minimum.at(bottom, mine, grey[candidates])
         keep &= top - bottom >= SHADING_CONTRAST
-    if keep.any():
-        keep &= _rim_sectors(gx, gy, labels, stats, keep) >= SHADING_SECTORS
     # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
     # would put the ball nearer than it is.
     return cv2.erode(keep.astype(np.uint8)[labels], _CROSS)
-
-
-SHADING_SECTORS = 7  # of 8 sectors around a patch's centre, how many must show its rim's gradient pointing at the centre
-SHADING_RADIAL = 0.7  # |cosine| between a rim pixel's gradient and its direction from the centre, at least
-
-
-def _rim_sectors(gx: np.ndarray, gy: np.ndarray, labels: np.ndarray, stats: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """Per patch of ``labels`` that ``keep`` marks, in how many of 8 sectors around its centre a pixel between half its
-    radius and its edge (and a pixel and a half beyond) has a strong gradient pointing at the centre (or away from it):
-    a ball's rim closes round it, a box's corner is two lines and a shelf's end one (Sobel gradients of the blurred grey)."""
-    out = np.zeros(len(keep), int)
-    mag = cv2.magnitude(gx, gy)
-    h, w = mag.shape
-    for k in np.flatnonzero(keep):
-        x, y, bw, bh, area = stats[k]
-        ys, xs = np.nonzero(labels[y : y + bh, x : x + bw] == k)
-        cx, cy, radius = xs.mean() + x, ys.mean() + y, np.sqrt(area / np.pi)
-        g = int(np.ceil(radius)) + 2
-        x0, x1, y0, y1 = max(int(cx) - g, 0), min(int(cx) + g + 1, w), max(int(cy) - g, 0), min(int(cy) + g + 1, h)
-        dy, dx = np.mgrid[y0:y1, x0:x1] - np.array([cy, cx])[:, None, None]
-        d, m = np.hypot(dx, dy), mag[y0:y1, x0:x1]
-        radial = np.abs(dx * gx[y0:y1, x0:x1] + dy * gy[y0:y1, x0:x1]) >= SHADING_RADIAL * d * m
-        rim = (d >= 0.5 * radius) & (d <= radius + 1.5) & (m >= 8.0 * SHADING_MIN) & radial
-        out[k] = len(np.unique((np.arctan2(dy[rim], dx[rim]) + np.pi) * (4 / np.pi) // 1 % 8))
-    return out
 
 
 def _pale(image: np.ndarray, target) -> np.ndarray:
@@ -215,7 +183,6 @@ def _box_sums(table: np.ndarray, outer: tuple, inner: tuple) -> np.ndarray:
 
 
 _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
-_DISC5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
 
 
 def halved(image: np.ndarray) -> np.ndarray:
