@@ -27,7 +27,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, nargs="+", default=[9, 47], help="white_ball tune seeds (each holds a ball at rest that the map finds)")
+    p.add_argument(
+        "--seeds", type=int, nargs="+", default=[9, 47], help="white_ball tune seeds (each holds a ball at rest that the map finds)"
+    )
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
     args = p.parse_args()
