@@ -4,9 +4,9 @@ A white or grey ball at rest in a white room shows by its shading alone (evidenc
 gradient map on the background's grid, its round patches kept). Only a target of every hue builds it. This renders
 white_ball tune scenes (640x480, two cameras) into memory and times the step (N = 2000, alpha = 0.2, as
 ``stereotrack bench``) against the floor (HSV and a threshold per target), each frame floor then step back to back
-(``bench_case``), with the shading map and without it (the tracker's ``_shaded`` giving no map: the foreground
-alone), in turn, ROUNDS times; the figure is the median over rounds of each run's median. It also times
-``shading`` alone on each camera's frame on the background's grid.
+(``bench_case``), with the shading map and without it (``tracker.shading: false``: the foreground alone), in turn,
+ROUNDS times; the figure is the median over rounds of each run's median. It also times ``shading`` alone on each
+camera's frame on the background's grid.
 
     .venv/bin/python benchmarks/shading_cost.py                 # tune seeds 9 and 47, 3 rounds
     .venv/bin/python benchmarks/shading_cost.py --seeds 1 --rounds 1 --frames 40
@@ -36,7 +36,7 @@ def main() -> int:
 
     from stereotrack.evidence.motion import SCALE, halved, shading
     from stereotrack.pipeline.bench import bench_case
-    from stereotrack.pipeline.tracker import SHADING_NEAR, Tracker, warm_up
+    from stereotrack.pipeline.tracker import SHADING_NEAR, warm_up
     from stereotrack.simulation.render import SceneRenderer
     from stereotrack.simulation.stress import stress_scene
 
@@ -44,7 +44,6 @@ def main() -> int:
     print(f"load average at start: {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)", file=sys.stderr)
     print("| scene | variant | step ms | floor ms | step / floor | shading alone, ms a camera |")
     print("|---|---|---|---|---|---|")
-    with_map = Tracker._shaded
     for seed in args.seeds:
         spec = stress_scene("white_ball", seed)
         renderer = SceneRenderer(spec)
@@ -61,13 +60,10 @@ def main() -> int:
                 shading(small, target, seen / max(s.d_min, SHADING_NEAR), seen / s.d_max)
                 alone.append(1e3 * (time.perf_counter() - t0))
         runs: dict[str, list[dict[str, float]]] = {"with the shading map": [], "without it": []}
-        try:
-            for _ in range(args.rounds):
-                for label in runs:
-                    Tracker._shaded = with_map if label == "with the shading map" else (lambda self, j, small, fg: {})
-                    runs[label].append(bench_case(frames, renderer.rig, config))
-        finally:
-            Tracker._shaded = with_map
+        variants = {"with the shading map": config, "without it": replace(config, tracker=replace(config.tracker, shading=False))}
+        for _ in range(args.rounds):
+            for label in runs:
+                runs[label].append(bench_case(frames, renderer.rig, variants[label]))
         for label, results in runs.items():
             med = {k: statistics.median(r[k] for r in results) for k in ("step", "floor", "ratio")}
             extra = f"{statistics.median(alone):.2f}" if label == "with the shading map" else ""

@@ -247,7 +247,7 @@ class Tracker:
         """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their
         shading added (motion.shading): a white ball at rest in a white room moves no more than the wall and has its
         colour, and counts as moving where its shading shows. Empty without motion or such a target."""
-        if foreground is None or small_halved is None:
+        if foreground is None or small_halved is None or not self.config.tracker.shading:
             return {}
         out = {}
         cam = self.evidence_cameras[j]

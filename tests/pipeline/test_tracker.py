@@ -249,3 +249,32 @@ def test_only_a_white_targets_backgrounds_start_from_frames_spread_over_a_record
         }
     )
     assert Tracker(default_rig(), config).background_start == frames
+
+
+@pytest.mark.parametrize("shading", [True, False])
+def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, monkeypatch):
+    """tracker.shading: a white or grey target's shading map (motion.shading, about 2 ms a camera at 640x480) is built
+    on every camera's frame when on, and never when off; a coloured target never builds one."""
+    from scene_helpers import default_rig
+
+    import stereotrack.pipeline.tracker as tracker_module
+
+    calls = []
+    real = tracker_module.shading
+    monkeypatch.setattr(tracker_module, "shading", lambda *a, **k: calls.append(a[1].name) or real(*a, **k))
+    config = config_from_dict(
+        {
+            "targets": [
+                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
+                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
+            ],
+            "tracker": {"shading": shading, "background_start": 0},
+        }
+    )
+    rig = default_rig()
+    tracker = Tracker(rig, config)
+    rng = np.random.default_rng(3)
+    for i in range(3):
+        images = tuple(rng.integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8) for cam in rig.cameras)
+        tracker.step(FramePair(i, images, tuple(i / 30 for _ in images)))
+    assert calls == (["white"] * len(rig.cameras) * 3 if shading else []), calls
