@@ -74,6 +74,26 @@ WALL = 0.02
 MOVED = 0.02
 OFF_BALL = 1.5
 THING = 0.0005
+# The first histogram (the range's box) gives every colour in range the benefit of the doubt: a colour rarer in the room
+# than the box's share of a bin is taken for the ball's. Skin's colours spread thin over many bins, and an empty hand was
+# a speckle of them that a ball-sized disc took for a ball (hands tune seeds 5, 7, 12: a second track on the juggler's
+# empty hand for 20-40 frames). A colour of a moving thing (moving_things) that the balls' cores showed, but that was
+# refused as a hand's when they were last taught it (ELSEWHERE), loses that doubt: its p is read from what the cores
+# taught alone. Not before the cores have taught a tenth of the histogram (prior under UNSEEN): until then not every
+# ball is tracked, the untracked balls move off the tracks' discs, and their colours are things, refused too (withdrawn
+# for every moving thing's colour from the first frame, hands tune seed 30, three balls: 0.993 -> 0.019; refused ones
+# from the first frame, seed 17, two balls held: 0.872 -> 0.383). Later is too late for a track on the empty hand: at
+# 0.8 / 0.7 seeds 5, 17 1.000 / 0.689, 0.872 / 0.606.
+UNSEEN = 0.9
+# ELSEWHERE: SPREAD refuses to teach a ball's own colour too (its shading's, its rim's) wherever the room holds ten times
+# the cores' of it and it moves, and withdrawn, the ball lost it (the clutter preset: a shading colour on one sample of
+# the cores a frame, 0.991 -> 0.990; hue_wall tune seed 22, a wall of the balls' hue: 100 bin-frames withdrawn in 90
+# frames, the balls' own shading colours moving off the discs on balls not yet tracked). A hand's colour moves away from
+# the balls (the empty hand, the arms), a ball's moves with a ball: refused is a hand's only where more of its pixels
+# moved off the balls' discs than lie on their cores, and more than of the balls' own main colour (the most of the
+# cores' colours that is not a moving thing's by SPREAD's and MOVED's tests: skin over WALL of the view is taught, hands
+# tune seed 17), which an untracked ball carries more of than of any other of its colours. Clutter 0.991 as without
+# the withdrawal, hue_wall seed 22 withdraws 7 bin-frames, the hands seeds as many as before (seed 12: 700 / 659).
 
 
 def _normalised(hist: np.ndarray) -> np.ndarray:
@@ -110,11 +130,14 @@ class ColourModel:
     prior: float = 1.0  # the share of the ball's histogram that is still its first one (the range's box, or a file's)
     spread: float = 0.0  # a colour the room holds this many times as often as the balls' cores is not taught (0: every one is)
     moving: np.ndarray | None = None  # H_BINS x S_BINS, with ``spread``: the share of the view the room's moving pixels of each colour are
+    first: np.ndarray | None = None  # the ball's first histogram (``prior`` of ``ball`` is still it); None: ``ball`` as given
+    refused: np.ndarray | None = None  # H_BINS x S_BINS bool: the cores showed it, last refused as a hand's (ELSEWHERE)
 
     @classmethod
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
         odds, spread = (WHITE_ODDS, 0.0) if target.any_hue else (1.0, SPREAD)
-        return cls(_normalised(learnt) if learnt is not None else box_histogram(target), None, rate, odds, spread=spread)
+        first = _normalised(learnt) if learnt is not None else box_histogram(target)
+        return cls(first.copy(), None, rate, odds, spread=spread, first=first)
 
     @classmethod
     def from_region(cls, target: Target, hsv: np.ndarray, ball: np.ndarray) -> ColourModel:
@@ -124,11 +147,18 @@ class ColourModel:
 
     def table(self, hsv: np.ndarray) -> np.ndarray:
         """p(ball | colour) x 255 per hue-saturation bin (H_BINS x S_BINS uint8): what a pixel of that colour
-        gets. The background's histogram starts from ``hsv`` when nothing was learnt yet."""
+        gets; a moving thing's colour the cores were refused, from what they taught alone (UNSEEN). The background's
+        histogram starts from ``hsv`` when nothing was learnt yet."""
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         odds = 1.0 + (self.odds - 1.0) * (1.0 - self.prior)  # the learnt share takes the odds
-        return colour_table(self.ball, self.background, odds)  # both float32 (_normalised and the running averages)
+        ball = self.ball
+        things = self.moving_things()
+        if things is not None and self.first is not None and self.refused is not None and self.prior < UNSEEN:  # UNSEEN
+            unseen = (things > 0) & self.refused
+            if unseen.any():
+                ball = np.where(unseen, np.maximum(ball - self.prior * self.first, 0.0), ball).astype(np.float32)
+        return colour_table(ball, self.background, odds)  # both float32 (_normalised and the running averages)
 
     def moving_things(self) -> np.ndarray | None:
         """The colours of things of the room that move, as learnt so far (H_BINS x S_BINS uint8, 1: more than MOVED of
@@ -174,7 +204,16 @@ class ColourModel:
         on_ball, rest, moved = hs_histograms(hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball)
         moves = self._moves()
         if moves is not None:  # SPREAD: a moving thing's colour, not a wall's, nor a still prop's
-            on_ball[(self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves] = 0
+            refuse = (self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves
+            shown = on_ball > 0
+            if self.refused is None:
+                self.refused = np.zeros(on_ball.shape, bool)
+            hands = refuse & (moved > on_ball)  # ELSEWHERE: more of it moved off the discs than lies on the cores ...
+            own = np.where(refuse | ((self.spread * on_ball < rest) & moves), 0, on_ball)  # ... and more than of the
+            if own.any():  # balls' main colour this frame (the most of the cores' colours that no moving thing shares)
+                hands &= moved > moved[np.unravel_index(np.argmax(own), own.shape)]
+            self.refused[shown] = hands[shown]
+            on_ball[refuse] = 0
         if on_ball.any():
             self.ball = (1 - self.rate) * self.ball + self.rate * _normalised(on_ball)
             self.prior *= 1 - self.rate

@@ -248,3 +248,82 @@ def test_the_colours_of_moving_things_of_the_room_are_things_not_a_still_props_o
     white = ColourModel.for_target(Target("white", (0, 0, 150), (179, 50, 255)))
     white.learn(hsv, np.ones(hsv.shape[:2], np.uint8), foreground=foreground)
     assert white.moving_things() is None  # a white ball: none
+
+
+# An orange ball held in a cupped hand (the fingers over the bottom of its core), the juggler's other hand empty and
+# moving, a face: skin is in the orange range (hue 12, saturation 80-95 of a range from 73), spread thin over two bins.
+ORANGE = Target("orange", (0, 73, 60), (20, 255, 255))
+SKIN_HSV = ((12, 80, 190), (12, 90, 200))  # two hue-saturation bins, in 4-pixel stripes (as the model samples)
+ORANGE_HSV = (5, 220, 210)
+HELD, EMPTY, FACE = (200, 240), (440, 240), (320, 100)
+
+
+def juggler() -> tuple[np.ndarray, np.ndarray]:
+    """HSV 640x480 (a dull blue wall out of range) and the foreground (1: the empty hand moves)."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 30, 150)
+    skin = np.zeros((480, 640), bool)
+    skin[HELD[1] + 1 : HELD[1] + 20, HELD[0] - 16 : HELD[0] + 16] = True  # the holding hand below the ball's centre ...
+    cv2.circle(hsv, HELD, 12, ORANGE_HSV, -1)
+    skin[EMPTY[1] - 12 : EMPTY[1] + 12, EMPTY[0] - 12 : EMPTY[0] + 12] = True
+    skin[FACE[1] - 15 : FACE[1] + 15, FACE[0] - 15 : FACE[0] + 15] = True
+    ys, xs = np.nonzero(skin)
+    hsv[ys, xs] = np.where(((xs // 4) % 2 == 0)[:, None], SKIN_HSV[0], SKIN_HSV[1])  # ... over its core's rim: fingers
+    foreground = np.zeros((480, 640), np.uint8)
+    foreground[EMPTY[1] - 14 : EMPTY[1] + 14, EMPTY[0] - 14 : EMPTY[0] + 14] = 1
+    return hsv, foreground
+
+
+def test_an_empty_hand_is_no_ball_once_its_skin_was_refused_as_the_holding_hands():
+    hsv, foreground = juggler()
+    in_range = target_mask(hsv, ORANGE)
+    assert in_range[EMPTY[1], EMPTY[0]] and in_range[HELD[1], HELD[0]]  # skin passes the range
+    model = ColourModel.for_target(ORANGE)
+    for frame in range(17):  # the held ball is tracked from the fourth frame: its core (fingers and all) teaches
+        model.table(hsv)
+        model.learn(hsv, in_range, np.array([HELD], float)[: int(frame >= 3)], np.array([12.0])[: int(frame >= 3)], foreground)
+    prob = model.probability(hsv)
+    hand = prob[EMPTY[1] - 12 : EMPTY[1] + 12, EMPTY[0] - 12 : EMPTY[0] + 12]
+    assert (hand > 127).mean() < 0.1  # the empty hand is the room's (on main, the range's box kept all of it: 1.0)
+    assert prob[HELD[1] - 6, HELD[0]] > 200  # the ball's own colour keeps its p
+
+
+def test_a_moving_colour_the_cores_never_showed_keeps_the_first_histograms_doubt():
+    """A fast ball's blur is a blend the cores do not show; it moves off the tracks' discs as a hand does (motion_blur)."""
+    hsv, foreground = juggler()
+    hsv[EMPTY[1] - 12 : EMPTY[1] + 12, EMPTY[0] - 12 : EMPTY[0] + 12] = (12, 120, 190)  # a colour the held ball's core lacks
+    in_range = target_mask(hsv, ORANGE)
+    model = ColourModel.for_target(ORANGE)
+    for frame in range(17):
+        model.table(hsv)
+        model.learn(hsv, in_range, np.array([HELD], float)[: int(frame >= 3)], np.array([12.0])[: int(frame >= 3)], foreground)
+    assert model.moving_things()[12 // 4, 120 // 8]  # a moving thing's colour ...
+    assert model.probability(hsv)[EMPTY[1], EMPTY[0]] > 127  # ... never refused, so not withdrawn
+
+
+@pytest.mark.parametrize("half, lit", [(0, 1), (12, 5)])
+def test_a_moving_balls_own_colour_is_never_withdrawn(half, lit):
+    """The tracked ball's highlight is a colour a still prop of the room shares (so SPREAD does not teach it) and that
+    moves off the track's disc too. A glint of it alone (half 0: the ball's shading past the disc, no main colour
+    moving): fewer of its moving pixels lie off the discs than on the core; a ball not yet tracked (half 12 px, five
+    samples of the highlight against the core's three): more, but fewer than of the balls' main colour. Neither is a
+    hand's: the highlight keeps the range box's doubt."""
+    highlight = (16, 200, 230)  # in the orange range, another bin than the ball's body (ORANGE_HSV)
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 30, 150)
+    cv2.circle(hsv, HELD, 12, ORANGE_HSV, -1)
+    hsv[HELD[1], HELD[0] : HELD[0] + 12 : 4] = highlight  # three of the core's samples (every 4th pixel is sampled)
+    hsv[100:124, 500:524] = highlight  # the still prop: 36 samples, over ten times the core's
+    hsv[EMPTY[1] - half : EMPTY[1] + half, EMPTY[0] - half : EMPTY[0] + half] = ORANGE_HSV  # the untracked ball, moving ...
+    start = EMPTY[0] - 4 * (lit // 2)
+    hsv[EMPTY[1], start : start + 4 * lit : 4] = highlight  # ... with ``lit`` samples of the highlight
+    foreground = np.zeros((480, 640), np.uint8)
+    foreground[EMPTY[1] - half - 4 : EMPTY[1] + half + 4, EMPTY[0] - half - 4 : EMPTY[0] + half + 4] = 1
+    in_range = target_mask(hsv, ORANGE)
+    model = ColourModel.for_target(ORANGE)
+    for frame in range(17):
+        model.table(hsv)
+        model.learn(hsv, in_range, np.array([HELD], float)[: int(frame >= 3)], np.array([12.0])[: int(frame >= 3)], foreground)
+    assert model.moving_things()[16 // 4, 200 // 8]  # a moving thing's colour, refused as the ball's (SPREAD) ...
+    assert model.ball[16 // 4, 200 // 8] < model.first[16 // 4, 200 // 8]
+    assert model.probability(hsv)[HELD[1], HELD[0]] > 127  # ... but the ball's own: it keeps its p (withdrawn: 0)
