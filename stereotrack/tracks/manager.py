@@ -405,11 +405,8 @@ class TrackManager:
         P[:3, :3], P[:3, 3:], P[3:, :3], P[3:, 3:] = R, R / dt, R / dt, (R1 + R) / dt**2
         tr.x, tr.P, tr.link = np.r_[z, (z - first) / dt], P, None
         if mine:
-            past.x[k, 3:] = 0.0
-            past.P[k] = 0.0
-            past.P[k, :3, :3], past.P[k, 3:, 3:] = R1, np.eye(3) * self.settings.max_speed**2
             F, Q, b = self._motion_model(dt, False)
-            tr.link = (*kalman_predict(past.x[k].copy(), past.P[k].copy(), F, Q, b), F)
+            tr.link = (*kalman_predict(*past.restate_newest(R1, self.settings.max_speed), F, Q, b), F)
 
     def _hit(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         """A track met an object: its lifecycle moves on."""

@@ -45,6 +45,15 @@ class FilterHistory:
             self.xp[k], self.Pp[k], self.F[k] = link
         self.n += 1
 
+    def restate_newest(self, position_cov: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
+        """The newest frame's state set anew (a start learning its velocity only now): its position kept, as uncertain
+        as ``position_cov`` (3 x 3), its velocity unknown up to ``speed`` (m/s) per axis. Returns copies of (x, P)."""
+        k = self.n - 1
+        self.x[k, 3:] = 0.0
+        self.P[k] = 0.0
+        self.P[k, :3, :3], self.P[k, 3:, 3:] = position_cov, np.eye(3) * speed**2
+        return self.x[k].copy(), self.P[k].copy()
+
     def oldest(self) -> tuple[float, bool]:
         """The oldest frame's time, and whether the track reported its state then."""
         return float(self.times[0]), bool(self.kept[0])

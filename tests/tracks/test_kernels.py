@@ -95,3 +95,20 @@ def test_the_filter_history_grows_and_drops_its_oldest_keeping_order():
         True,
         True,
     ]
+
+
+def test_restating_the_newest_state_keeps_its_position_and_opens_its_velocity():
+    """A two-point start learns the velocity only at its second hit: the first frame's state keeps where it was seen,
+    as uncertain as the start says, and its velocity is open up to the top speed (no sharper than it was known)."""
+    history = FilterHistory(capacity=2)
+    rng = np.random.default_rng(5)
+    older, newest = rng.normal(size=6), rng.normal(size=6)
+    history.append(0.0, older, np.eye(6), None, True)
+    history.append(1 / 30, newest, np.eye(6) * 2, None, True)
+    cov = np.diag([0.01, 0.04, 0.02])
+    x, P = history.restate_newest(cov, 12.0)
+    assert np.array_equal(x[:3], newest[:3]) and not x[3:].any()
+    assert np.array_equal(P[:3, :3], cov) and np.array_equal(P[3:, 3:], np.eye(3) * 144.0) and not P[:3, 3:].any()
+    assert np.array_equal(history.x[1], x) and np.array_equal(history.P[1], P) and np.array_equal(history.x[0], older)
+    x[0] = 99.0  # a copy: the caller's prediction does not write into the history
+    assert history.x[1, 0] != 99.0
