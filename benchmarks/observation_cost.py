@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -41,7 +40,7 @@ def main() -> int:
     p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
     args = p.parse_args()
 
-    from stereotrack.pipeline.bench import bench_case
+    from stereotrack.pipeline.bench import bench_in_turn
     from stereotrack.pipeline.tracker import warm_up
     from stereotrack.simulation.presets import make_preset
     from stereotrack.simulation.render import SceneRenderer
@@ -58,16 +57,8 @@ def main() -> int:
         base = spec.config()
         # Below 1280 pixels wide the default already reads every pixel.
         variants = [(label, changes) for label, changes in VARIANTS if w >= 1280 or "evidence_scale" not in changes]
-        runs: dict[str, list[dict[str, float]]] = {label: [] for label, _ in variants}
-        for _ in range(args.rounds):
-            for label, changes in variants:
-                config = replace(base, tracker=replace(base.tracker, particles=2000, alpha=0.2, **changes))
-                runs[label].append(bench_case(frames, renderer.rig, config))
-        for label, _ in variants:
-            med = {
-                k: statistics.median(r[k] for r in runs[label])
-                for k in ("step", "floor", "ratio", "evidence", "masks", "blobs", "particles")
-            }
+        configs = {label: replace(base, tracker=replace(base.tracker, particles=2000, alpha=0.2, **changes)) for label, changes in variants}
+        for label, med in bench_in_turn(frames, renderer.rig, configs, args.rounds).items():
             print(
                 f"| {w}x{h} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | "
                 f"{med['evidence']:.2f} | {med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} |",

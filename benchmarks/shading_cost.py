@@ -35,7 +35,7 @@ def main() -> int:
     args = p.parse_args()
 
     from stereotrack.evidence.motion import SCALE, halved, shading
-    from stereotrack.pipeline.bench import bench_case
+    from stereotrack.pipeline.bench import bench_in_turn
     from stereotrack.pipeline.tracker import SHADING_NEAR, warm_up
     from stereotrack.simulation.render import SceneRenderer
     from stereotrack.simulation.stress import stress_scene
@@ -59,13 +59,8 @@ def main() -> int:
                 t0 = time.perf_counter()
                 shading(small, target, seen / max(s.d_min, SHADING_NEAR), seen / s.d_max)
                 alone.append(1e3 * (time.perf_counter() - t0))
-        runs: dict[str, list[dict[str, float]]] = {"with the shading map": [], "without it": []}
-        variants = {"with the shading map": config, "without it": replace(config, tracker=replace(config.tracker, shading=False))}
-        for _ in range(args.rounds):
-            for label in runs:
-                runs[label].append(bench_case(frames, renderer.rig, variants[label]))
-        for label, results in runs.items():
-            med = {k: statistics.median(r[k] for r in results) for k in ("step", "floor", "ratio")}
+        configs = {"with the shading map": config, "without it": replace(config, tracker=replace(config.tracker, shading=False))}
+        for label, med in bench_in_turn(frames, renderer.rig, configs, args.rounds).items():
             extra = f"{statistics.median(alone):.2f}" if label == "with the shading map" else ""
             print(
                 f"| white_ball tune {seed} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | {extra} |",

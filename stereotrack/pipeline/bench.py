@@ -42,3 +42,13 @@ def bench_case(frames: Iterable[FramePair], rig: Rig, config: Config, warmup: in
     out["floor"] = float(np.median(floor_ms))
     out["ratio"] = float(np.median(np.array(step_ms) / np.array(floor_ms)))
     return out
+
+
+def bench_in_turn(frames: Sequence[FramePair], rig: Rig, configs: dict[str, Config], rounds: int) -> dict[str, dict[str, float]]:
+    """``bench_case`` of each config in turn, ``rounds`` times (machine load falls on all of them alike); per config, the
+    median over rounds of each figure."""
+    runs: dict[str, list[dict[str, float]]] = {label: [] for label in configs}
+    for _ in range(rounds):
+        for label, config in configs.items():
+            runs[label].append(bench_case(frames, rig, config))
+    return {label: {k: float(np.median([r[k] for r in results])) for k in results[0]} for label, results in runs.items()}

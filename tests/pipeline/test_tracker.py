@@ -278,3 +278,15 @@ def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, 
         images = tuple(rng.integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8) for cam in rig.cameras)
         tracker.step(FramePair(i, images, tuple(i / 30 for _ in images)))
     assert calls == (["white"] * len(rig.cameras) * 3 if shading else []), calls
+
+
+def test_bench_in_turn_runs_the_configs_in_turn_and_gives_each_figures_median_over_rounds(monkeypatch):
+    """The cost benchmarks' loop: config A, B, A, B ... (load falls on both alike), then per config the median of each figure."""
+    import stereotrack.pipeline.bench as bench
+
+    calls = []
+    figures = iter([{"step": 3.0, "ratio": 1.0}, {"step": 9.0, "ratio": 4.0}, {"step": 1.0, "ratio": 2.0}, {"step": 7.0, "ratio": 5.0}] * 2)
+    monkeypatch.setattr(bench, "bench_case", lambda frames, rig, config: calls.append(config) or next(figures))
+    out = bench.bench_in_turn([], None, {"a": "A", "b": "B"}, rounds=3)
+    assert calls == ["A", "B"] * 3
+    assert out == {"a": {"step": 3.0, "ratio": 1.0}, "b": {"step": 9.0, "ratio": 4.0}}  # a: 3 1 3 and 1 2 1; b: 9 7 9 and 4 5 4
