@@ -204,12 +204,13 @@ class ColourModel:
         on_ball, rest, moved = hs_histograms(hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball)
         moves = self._moves()
         if moves is not None:  # SPREAD: a moving thing's colour, not a wall's, nor a still prop's
-            refuse = (self.spread * on_ball < rest) & (rest < WALL * rest.sum()) & moves
+            spread_moving = (self.spread * on_ball < rest) & moves
+            refuse = spread_moving & (rest < WALL * rest.sum())
             shown = on_ball > 0
             if self.refused is None:
                 self.refused = np.zeros(on_ball.shape, bool)
             hands = refuse & (moved > on_ball)  # ELSEWHERE: more of it moved off the discs than lies on the cores ...
-            own = np.where(refuse | ((self.spread * on_ball < rest) & moves), 0, on_ball)  # ... and more than of the
+            own = np.where(spread_moving, 0, on_ball)  # ... and more than of the
             if own.any():  # balls' main colour this frame (the most of the cores' colours that no moving thing shares)
                 hands &= moved > moved[np.unravel_index(np.argmax(own), own.shape)]
             self.refused[shown] = hands[shown]
