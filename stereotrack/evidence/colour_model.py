@@ -149,6 +149,11 @@ class ColourModel:
         """p(ball | colour) x 255 per hue-saturation bin (H_BINS x S_BINS uint8): what a pixel of that colour
         gets; a moving thing's colour the cores were refused, from what they taught alone (UNSEEN). The background's
         histogram starts from ``hsv`` when nothing was learnt yet."""
+        return self.table_and_things(hsv)[0]
+
+    def table_and_things(self, hsv: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """``table(hsv)`` and ``moving_things()``, the moving things found once for both (the tracker needs both
+        every frame)."""
         if self.background is None:
             self.background = _normalised(hs_histogram(hsv[::LEARN_STEP, ::LEARN_STEP]))
         odds = 1.0 + (self.odds - 1.0) * (1.0 - self.prior)  # the learnt share takes the odds
@@ -158,7 +163,7 @@ class ColourModel:
             unseen = (things > 0) & self.refused
             if unseen.any():
                 ball = np.where(unseen, np.maximum(ball - self.prior * self.first, 0.0), ball).astype(np.float32)
-        return colour_table(ball, self.background, odds)  # both float32 (_normalised and the running averages)
+        return colour_table(ball, self.background, odds), things  # ball and background both float32 (_normalised, running averages)
 
     def moving_things(self) -> np.ndarray | None:
         """The colours of things of the room that move, as learnt so far (H_BINS x S_BINS uint8, 1: more than MOVED of

@@ -265,7 +265,7 @@ class Tracker:
         if self.colour_models is None:
             return None, None
         model = self.colour_models[target.name][j]
-        table, things = model.table(cm.hsv), model.moving_things()
+        table, things = model.table_and_things(cm.hsv)
         cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)

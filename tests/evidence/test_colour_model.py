@@ -245,6 +245,8 @@ def test_the_colours_of_moving_things_of_the_room_are_things_not_a_still_props_o
     assert things[bin_of(skin)] == 1
     assert things[bin_of(prop)] == 0 and things[bin_of(ball)] == 0 and things[bin_of((12, 180))] == 0
     assert things[bin_of(blend)] == 0  # rarer than THING
+    table, once = model.table_and_things(hsv)  # what the tracker reads every frame: the same two, found once
+    assert np.array_equal(once, things) and np.array_equal(table, model.table(hsv))
     white = ColourModel.for_target(Target("white", (0, 0, 150), (179, 50, 255)))
     white.learn(hsv, np.ones(hsv.shape[:2], np.uint8), foreground=foreground)
     assert white.moving_things() is None  # a white ball: none
