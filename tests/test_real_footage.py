@@ -119,3 +119,18 @@ def test_the_observation_model_is_built_on_the_trackers_grid_and_answers_in_the_
     assert len(centres) >= 1
     near = np.hypot(centres[:, 0] - x, centres[:, 1] - y) < 3
     assert near.any() and 25 <= radii[near].max() <= 35
+
+
+def test_the_range_coverage_is_the_median_share_of_the_balls_inner_disc_in_range(monkeypatch):
+    """What explains a pale ball's misses: how much of it the typed range takes in, per frame, then the median."""
+    frames = []
+    for share in (0.2, 0.5, 0.9):
+        hsv = np.zeros((100, 100, 3), np.uint8)
+        hsv[:] = (60, 40, 200)  # the ball's pale colour: out of the range (S under 80)
+        inner = np.zeros((100, 100), bool)
+        inner[40:60, 40:60] = True
+        hsv[40 : 40 + round(20 * share), 40:60] = (60, 120, 200)  # this share of its rows saturated enough
+        frames.append((rf.Label("v", 0, True, 50.0, 50.0, 16.0), hsv, inner))
+    monkeypatch.setattr(rf, "whole_ball_frames", lambda labels, videos: iter(frames))
+    assert rf.range_coverage([], Path("."), (50, 80, 80), (70, 255, 255)) == pytest.approx(0.5)
+    assert rf.range_coverage([], Path("."), (50, 30, 80), (70, 255, 255)) == 1.0  # a range from S 30 takes it all in
