@@ -98,9 +98,10 @@ class TrackedBalls:
             object.__setattr__(self, "settled", np.ones(len(self.centres), dtype=bool))
 
     @classmethod
-    def from_tracks(cls, tracks: Sequence[TrackEstimate], radius: Mapping[str, float]) -> TrackedBalls:
-        """The tracks past their tentative start (confirmed or coasting), with their target's ball radius."""
-        live = [t for t in tracks if t.state != "tentative"]
+    def from_tracks(cls, tracks: Sequence[TrackEstimate], radius: Mapping[str, float], tentative: Sequence[str] = ()) -> TrackedBalls:
+        """The tracks past their tentative start (confirmed or coasting), with their target's ball radius; the tentative
+        ones of the targets named in ``tentative`` too (never settled, not confirmed)."""
+        live = [t for t in tracks if t.state != "tentative" or t.target in tentative]
         return cls(
             np.array([t.position for t in live]).reshape(-1, 3),
             np.array([radius[t.target] for t in live]),

@@ -286,13 +286,18 @@ class BackgroundModel:
         """Per ball (``uv``, ``r``: its centre and apparent radius on the evidence grid), whether its disc is a ghost
         to be learnt all the same: for the targets of ``rim_checked``, a disc that shows nothing in this frame (a
         white ball's place in a white room, once the ball that sat there when the background started has gone). A
-        white ball there, at rest or moving, shows its shading and rim."""
+        white ball there, at rest or moving, shows its shading and rim. A track not settled yet may sit on a ghost on
+        a textured wall too: its disc is a ghost where the frame shows less there than the background does (the
+        background holds a ball the frame no longer shows); a ball in front of the room shows at least as much."""
         out = np.zeros(len(balls), bool)
         if not self.rim_checked:
             return out
         for k, ((u, v), ok, radius, name) in enumerate(zip(uv, front, r, balls.targets)):
             if name in self.rim_checked and ok and np.isfinite(u) and np.isfinite(v):
-                out[k] = structure(small, u / SCALE, v / SCALE, radius / SCALE) < STRUCTURE_MIN
+                seen = structure(small, u / SCALE, v / SCALE, radius / SCALE)
+                out[k] = seen < STRUCTURE_MIN or (
+                    not balls.settled[k] and seen < structure(self._background, u / SCALE, v / SCALE, radius / SCALE)
+                )
         return out
 
     def _discs(self, balls: TrackedBalls) -> np.ndarray:
@@ -346,10 +351,15 @@ class BackgroundModel:
     def _moved(self, balls: TrackedBalls | None) -> TrackedBalls | None:
         """The tracked balls that keep the background from learning their discs: the settled ones (tracks/manager.py:
         moved since their track began, or lived a while). A new track that has not moved may hold a ghost (a ball
-        that sat there when the background started, then left): protected, it would stay foreground for ever."""
+        that sat there when the background started, then left): protected, it would stay foreground for ever.
+        A white or grey ball's (``rim_checked``) whatever its track's age: a ghost's disc is told by what it shows
+        (``_ghosts``), and a white ball at rest under a new track, learnt like the room (absorbed whole once still
+        for ABSORB_FRAMES), left a ghost ball where it had rested when it rolled on, which a new track took for 5-8
+        frames (white_ball tune seeds 5, 6, 7, 17, 23, 27)."""
         if balls is None or not len(balls):
             return balls
-        return balls.where(balls.settled)
+        white = np.array([name in self.rim_checked for name in balls.targets], dtype=bool)
+        return balls.where(balls.settled | white)
 
     def _gain(self, image: np.ndarray) -> np.ndarray:
         """Per channel, what this frame must be multiplied by to match the background where the room did not

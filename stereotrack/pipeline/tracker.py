@@ -71,6 +71,7 @@ class Tracker:
         self.scales = [evidence_scale(s, cam, smallest) for cam in rig.cameras]
         self.evidence_cameras = [on_grid(cam, k) for cam, k in zip(rig.cameras, self.scales)]
         white = {t.name: t for t in config.targets if t.any_hue}  # their kept-out discs are checked for ghosts
+        self._held_early = tuple(white) if s.motion else ()  # their tentative tracks keep their discs out of the backgrounds
         self.backgrounds = (
             [
                 BackgroundModel(cam, s.background_rate, s.foreground_threshold, white, faint=len(white) < len(config.targets))
@@ -143,13 +144,19 @@ class Tracker:
         timings: dict[str, float] = {"masks": 0.0, "blobs": 0.0}
         t0 = time.perf_counter()
         cams = self.rig.cameras
-        balls = TrackedBalls.from_tracks(self.identities.predicted(now), self.radius)  # confirmed and coasting
+        predicted = self.identities.predicted(now)
+        balls = TrackedBalls.from_tracks(predicted, self.radius)  # confirmed and coasting
         confirmed = balls.confirmed_only()
+        # The backgrounds keep a white or grey ball out from its first hit: a ball at rest is learnt into the room in the
+        # frames its track is tentative, and leaves a ghost when it rolls on (motion.BackgroundModel._moved)
+        held = TrackedBalls.from_tracks(predicted, self.radius, self._held_early) if self._held_early else balls
         # Each camera's evidence, once: its masks, then each target's blobs and their viewing rays, read by
         # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
         # parts release the GIL).
         n = len(cams)
-        per_camera = list(self._pool.map(self._camera_evidence, range(n), pair.images, [balls] * n, [confirmed] * n, colours or [None] * n))
+        per_camera = list(
+            self._pool.map(self._camera_evidence, range(n), pair.images, [balls] * n, [confirmed] * n, colours or [None] * n, [held] * n)
+        )
         cmasks = [cm for cm, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
         for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
@@ -206,13 +213,14 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls, colours=None):
-        """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took."""
+    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls, colours=None, held=None):
+        """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took.
+        ``held``: the balls the background is kept from learning (``balls`` and the tentative white ones; None: ``balls``)."""
         s = self.config.tracker
         cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
         small, cm, small_halved = colours if colours is not None else self._colours(j, image)
-        foreground = self.backgrounds[j].update(small, balls, small_halved) if self.backgrounds else None
+        foreground = self.backgrounds[j].update(small, balls if held is None else held, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
         shaded = self._shaded(j, small_halved, foreground)
         colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}

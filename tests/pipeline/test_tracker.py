@@ -290,3 +290,38 @@ def test_bench_in_turn_runs_the_configs_in_turn_and_gives_each_figures_median_ov
     out = bench.bench_in_turn([], None, {"a": "A", "b": "B"}, rounds=3)
     assert calls == ["A", "B"] * 3
     assert out == {"a": {"step": 3.0, "ratio": 1.0}, "b": {"step": 9.0, "ratio": 4.0}}  # a: 3 1 3 and 1 2 1; b: 9 7 9 and 4 5 4
+
+
+def test_a_white_targets_tentative_tracks_keep_their_discs_out_of_the_backgrounds_a_coloured_ones_do_not(monkeypatch):
+    """A white ball at rest is learnt into the background like the room while its track is tentative, and leaves a
+    ghost ball when it rolls on (white_ball tune seeds 19, 23, 24): the backgrounds are given a white or grey target's
+    tentative tracks too, never a coloured target's (their ghosts are told from balls by what the disc shows, motion.py)."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.motion import BackgroundModel
+    from stereotrack.results import Object3D
+
+    seen = []
+    real = BackgroundModel.update
+    monkeypatch.setattr(BackgroundModel, "update", lambda self, image, balls=None, *a: seen.append(balls) or real(self, image, balls, *a))
+    config = config_from_dict(
+        {
+            "targets": [
+                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
+                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
+            ],
+            "tracker": {"background_start": 0},
+        }
+    )
+    rig = default_rig()
+    tracker = Tracker(rig, config)
+    seen.clear()  # (the kernels' warm-up ran a tracker of its own)
+    cov = np.eye(3) * 1e-4
+    tracker.identities.update(
+        [Object3D("white", np.array([0.2, 1.5, 0.0]), cov, 0.5, 100), Object3D("orange", np.array([-0.2, 1.5, 0.0]), cov, 0.5, 100)], 0.0
+    )
+    images = tuple(np.full((cam.height, cam.width, 3), 200, np.uint8) for cam in rig.cameras)
+    tracker.step(FramePair(1, images, tuple(1 / 30 for _ in images)))
+    assert len(seen) == len(rig.cameras)
+    for balls in seen:
+        assert balls.targets == ("white",) and not balls.settled.any() and not balls.confirmed.any()
