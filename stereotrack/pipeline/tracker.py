@@ -154,9 +154,7 @@ class Tracker:
         # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
         # parts release the GIL).
         n = len(cams)
-        per_camera = list(
-            self._pool.map(self._camera_evidence, range(n), pair.images, [balls] * n, [confirmed] * n, colours or [None] * n, [held] * n)
-        )
+        per_camera = list(self._pool.map(self._camera_evidence, range(n), pair.images, [held] * n, [confirmed] * n, colours or [None] * n))
         cmasks = [cm for cm, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
         for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
@@ -213,14 +211,15 @@ class Tracker:
             timings_ms=timings,
         )
 
-    def _camera_evidence(self, j: int, image: np.ndarray, balls: TrackedBalls, confirmed: TrackedBalls, colours=None, held=None):
+    def _camera_evidence(self, j: int, image: np.ndarray, held: TrackedBalls, confirmed: TrackedBalls, colours=None):
         """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took.
-        ``held``: the balls the background is kept from learning (``balls`` and the tentative white ones; None: ``balls``)."""
+        ``held``: the balls whose discs the background may keep from learning (confirmed and coasting; a white target's
+        tentative ones too)."""
         s = self.config.tracker
         cam, k = self.evidence_cameras[j], self.scales[j]
         t0 = time.perf_counter()
         small, cm, small_halved = colours if colours is not None else self._colours(j, image)
-        foreground = self.backgrounds[j].update(small, balls if held is None else held, small_halved) if self.backgrounds else None
+        foreground = self.backgrounds[j].update(small, held, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
         shaded = self._shaded(j, small_halved, foreground)
         colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}
