@@ -89,6 +89,11 @@ class TrackerSettings:
         "learn each target's colours against the background's (hue-saturation histograms, refined online from confirmed "
         "tracks): a colour common in the room counts less than the ball's",
     )
+    surfaces: bool = setting(
+        True,
+        "an object still in every view whose surroundings match between two views at its own depth is a patch of the surface "
+        "it is seen on (a book's end, a poster's corner of the ball's colour), not a ball before it: dropped (with motion only)",
+    )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )

@@ -1,0 +1,98 @@
+"""Is a still object a patch of a surface (a book's end, a poster's corner), not a ball before it?
+
+A ball's outline is a depth edge all round: what shows just outside its disc lies behind it (or in front), at another
+depth. A patch of a surface of the ball's colour is bounded by the same surface, or by things on it: what shows just
+outside it lies at its own depth. So around a still object, the ring just outside its disc is compared between two
+views for surfaces at depths along the viewing ray: when the ring matches at the object's own depth, and clearly better
+than at any depth a ball's radius (in pixels of disparity) or more away, it is part of the surface it is seen on. A
+uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from ..camera import Camera
+
+RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
+RING_MARGIN_PX = (2.0, 4.0)  # ... at least this far outside the disc, and this wide: clear of its blurred edge
+RING_ANGLES = 36
+RING_CIRCLES = 3
+# Surfaces at these multiples of the object's distance: every half per cent near it (a pixel of disparity is 0.5-1 per cent
+# at a few metres), every 5 per cent out to half and twice it
+DEPTH_FACTORS = np.unique(np.r_[np.linspace(0.9, 1.1, 41), np.exp(np.arange(np.log(0.5), np.log(2.0) + 1e-9, np.log(1.05)))])
+OWN_PX, AWAY_PX = 1.0, 2.0  # pixels of disparity: at least within this of the object's depth is at it, at least this away is not
+# The ring matches at the object's depth this many times better (its mean absolute difference, each view's mean taken out)
+# than at any depth two ball radii of disparity or more away: the surround is at the object's depth. Still balls' rings
+# (hue_wall, static_props tune seeds 48-59, 90 frames) 0.06-1.08; a book's end on a shelf (hue_wall 18) 4.3-4.5, a speck on
+# a poster at 20 m (fast_ball 47) 3.5-9.9.
+SURFACE_RATIO = 2.0
+MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
+
+
+def _sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Grey values (float, the mean of the channels) of ``image`` at pixels ``uv`` (... x 2), bilinear."""
+    shape = uv.shape[:-1]
+    maps = uv.reshape(1, -1, 2).astype(np.float32)
+    out = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float32)
+    if out.ndim == 3:
+        out = out.mean(axis=2)
+    return out.reshape(shape)
+
+
+def surface_ratio(position: np.ndarray, radius: float, a: Camera, b: Camera, image_a: np.ndarray, image_b: np.ndarray) -> float:
+    """How many times better the ring around a ball of ``radius`` at ``position`` matches between cameras a and b at its own
+    depth than at other depths; NaN when it cannot be told (out of a view, or no depth far enough from its own searched)."""
+    p = np.asarray(position, float)
+    uv0, front, z = a.view(p[None])
+    uvb, front_b = b.project(p[None])
+    if not (front[0] and front_b[0] and a.in_image(uv0)[0] and b.in_image(uvb)[0]):
+        return np.nan
+    r = float(a.apparent_radius(radius, z[0]))
+    inner = max(RING[0] * r, r + RING_MARGIN_PX[0])
+    outer = max(RING[1] * r, inner + RING_MARGIN_PX[1])
+    # The ring as points around the object across camera a's ray (metres: pixels at its depth), each slid along its own
+    # ray from camera a to the depths searched: it stays where it is in camera a's view, and moves along the epipolar lines in b's
+    ray = p - a.centre
+    distance = float(np.linalg.norm(ray))
+    ray /= max(distance, 1e-12)
+    across = np.linalg.svd(ray[None])[2][1:]  # two unit vectors across the ray
+    angles = np.linspace(0.0, 2 * np.pi, RING_ANGLES, endpoint=False)
+    radii = np.linspace(inner, outer, RING_CIRCLES) * z[0] / a.focal_px
+    circle = np.stack([np.cos(angles), np.sin(angles)], axis=-1) @ across  # RING_ANGLES x 3
+    ring = (p + (radii[:, None, None] * circle[None]).reshape(-1, 3)) - a.centre
+    seen_a, front_a = a.project(a.centre + ring)
+    inside = front_a & a.in_image(seen_a)
+    if inside.sum() < len(ring) // 2:
+        return np.nan
+    ring, seen_a = ring[inside], seen_a[inside]
+    points = a.centre + ring[None] * DEPTH_FACTORS[:, None, None]  # S x N x 3
+    uv, ok = b.project(points.reshape(-1, 3))
+    seen = (ok & b.in_image(uv)).reshape(len(DEPTH_FACTORS), -1)
+    grey_a = _sample(image_a, seen_a)
+    uv[~ok] = 0.0  # (behind camera b: not seen)
+    grey_b = _sample(image_b, uv.reshape(len(DEPTH_FACTORS), -1, 2))
+    grey_a = grey_a - grey_a.mean()
+    grey_b = grey_b - grey_b.mean(axis=1, keepdims=True)
+    diff = np.abs(grey_b - grey_a[None]).mean(axis=1)
+    diff[~seen.all(axis=1)] = np.nan
+    centres, _ = b.project(a.centre + (p - a.centre) * DEPTH_FACTORS[:, None])
+    shift = np.linalg.norm(centres - uvb, axis=1)  # pixels of disparity from the object's depth
+    # At its own depth: within its apparent radius of disparity (its depth from speckle or from noisy blobs is no better:
+    # fast_ball tune seed 47, a speck at 20 m, 2 pixels wide, jumped 4 pixels of disparity from frame to frame); away: twice that
+    own = diff[shift <= max(OWN_PX, r)]
+    away = diff[shift >= max(AWAY_PX, 2.0 * r)]
+    if not np.isfinite(own).any() or not np.isfinite(away).any():
+        return np.nan
+    return float(np.nanmin(away) / max(np.nanmin(own), MATCH_FLOOR))
+
+
+def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
+    """Is an object at ``position`` a patch of the surface it is seen on (``surface_ratio`` at least SURFACE_RATIO between the
+    first camera and every other that tells)? False when none tells."""
+    ratios = np.array([surface_ratio(position, radius, cameras[0], b, images[0], images[k]) for k, b in enumerate(cameras[1:], 1)])
+    told = ratios[np.isfinite(ratios)]
+    return bool(len(told)) and bool((told >= SURFACE_RATIO).all())
