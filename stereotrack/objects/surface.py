@@ -3,8 +3,9 @@
 A ball's outline is a depth edge all round: what shows just outside its disc lies behind it (or in front), at another
 depth. A patch of a surface of the ball's colour is bounded by the same surface, or by things on it: what shows just
 outside it lies at its own depth. So around a still object, the ring just outside its disc is compared between two
-views for surfaces at depths along the viewing ray: when the ring matches at the object's own depth, and clearly better
-than at any depth a ball's radius (in pixels of disparity) or more away, it is part of the surface it is seen on. A
+views for surfaces at depths along the viewing ray: when the ring matches best at the object's own depth, and clearly
+better there than at any depth two ball radii (in pixels of disparity) or more away, it is part of the surface it is seen
+on. A
 uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
 """
 
@@ -24,11 +25,11 @@ RING_CIRCLES = 3
 # Surfaces at these multiples of the object's distance: every half per cent near it (a pixel of disparity is 0.5-1 per cent
 # at a few metres), every 5 per cent out to half and twice it
 DEPTH_FACTORS = np.unique(np.r_[np.linspace(0.9, 1.1, 41), np.exp(np.arange(np.log(0.5), np.log(2.0) + 1e-9, np.log(1.05)))])
-OWN_PX, AWAY_PX = 1.0, 2.0  # pixels of disparity: at least within this of the object's depth is at it, at least this away is not
-# The ring matches at the object's depth this many times better (its mean absolute difference, each view's mean taken out)
-# than at any depth two ball radii of disparity or more away: the surround is at the object's depth. Still balls' rings
-# (hue_wall, static_props tune seeds 48-59, 90 frames) 0.06-1.08; a book's end on a shelf (hue_wall 18) 4.3-4.5, a speck on
-# a poster at 20 m (fast_ball 47) 3.5-9.9.
+OWN_PX, AWAY_PX = 2.0, 4.0  # pixels of disparity: within this of the object's depth is at it; at least this (and two radii) away is not
+# The ring matches best at the object's depth, and this many times better there (its mean absolute difference, each view's
+# mean taken out) than at any depth two ball radii of disparity or more away: the surround is at the object's depth. Still
+# balls' rings (hue_wall, static_props tune seeds 48-59, 90 frames) never match best at their own depth; a book's end on a
+# shelf (hue_wall 18) 4.6-4.9 times better there, a speck on a poster at 20 m (fast_ball 47) 5.7-9.3 where it does.
 SURFACE_RATIO = 2.0
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
@@ -81,13 +82,18 @@ def surface_ratio(position: np.ndarray, radius: float, a: Camera, b: Camera, ima
     diff[~seen.all(axis=1)] = np.nan
     centres, _ = b.project(a.centre + (p - a.centre) * DEPTH_FACTORS[:, None])
     shift = np.linalg.norm(centres - uvb, axis=1)  # pixels of disparity from the object's depth
-    # At its own depth: within its apparent radius of disparity (its depth from speckle or from noisy blobs is no better:
-    # fast_ball tune seed 47, a speck at 20 m, 2 pixels wide, jumped 4 pixels of disparity from frame to frame); away: twice that
-    own = diff[shift <= max(OWN_PX, r)]
-    away = diff[shift >= max(AWAY_PX, 2.0 * r)]
-    if not np.isfinite(own).any() or not np.isfinite(away).any():
+    # The best match must lie at the object's own depth, to a blob's disparity's precision (OWN_PX: a speck's centroid jumps
+    # a pixel or two, fast_ball tune seed 47); a ball's ring matches best where what lies behind it is (hue_wall tune seed 7:
+    # a wall 8 pixels of disparity behind a ball of 10 pixels' radius, its ring's match falling all the way there)
+    if not np.isfinite(diff).any():
         return np.nan
-    return float(np.nanmin(away) / max(np.nanmin(own), MATCH_FLOOR))
+    best = int(np.nanargmin(diff))
+    away = diff[shift >= max(AWAY_PX, 2.0 * r)]
+    if not np.isfinite(away).any():
+        return np.nan
+    if shift[best] > OWN_PX:
+        return 0.0
+    return float(np.nanmin(away) / max(float(diff[best]), MATCH_FLOOR))
 
 
 def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
