@@ -9,6 +9,10 @@ figure is the median over rounds of each run's median step / floor.
 
     .venv/bin/python benchmarks/observation_cost.py                    # 640x480 and 1280x720, 3 rounds
     .venv/bin/python benchmarks/observation_cost.py --sizes 640x480 --rounds 1 --frames 40
+    .venv/bin/python benchmarks/observation_cost.py --scene hue_wall:18   # a stress tune scene, at its own size
+
+A stress scene shows what a part costs where it has work: the surface test judges still objects, which
+pendulum4 has none of once its balls have travelled.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ VARIANTS = [
     ("cameras side by side (threads 0)", {"threads": 0}),
     ("every pixel (evidence_scale 1)", {"evidence_scale": 1}),  # the default builds 1280-wide evidence on every other pixel
     ("colour window likelihood", {"likelihood": "colour_window"}),
+    ("no surface test", {"surfaces": False}),
     ("all off (the paper's model)", {"colour_model": False, "motion": False, "ball_blobs_only": False, "likelihood": "colour_window"}),
 ]
 
@@ -38,20 +43,28 @@ def main() -> int:
     p.add_argument("--sizes", nargs="+", default=["640x480", "1280x720"])
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
+    p.add_argument("--scene", default="pendulum4", help="pendulum4 (at each of --sizes), or a stress scene CATEGORY:SEED at its own size")
     args = p.parse_args()
 
     from stereotrack.pipeline.bench import bench_in_turn
     from stereotrack.pipeline.tracker import warm_up
     from stereotrack.simulation.presets import make_preset
     from stereotrack.simulation.render import SceneRenderer
+    from stereotrack.simulation.stress import stress_scene
 
     warm_up()
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores)", file=sys.stderr)
-    print("| size | variant | step ms | floor ms | step / floor | evidence (wall) | masks (work) | blobs (work) | particles |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for size in args.sizes:
+    print("| size | variant | step ms | floor ms | step / floor | evidence (wall) | masks (work) | blobs (work) | particles | objects |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    stress = args.scene != "pendulum4"
+    for size in args.sizes[:1] if stress else args.sizes:
         w, h = (int(x) for x in size.split("x"))
-        spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)
+        if stress:
+            category, seed = args.scene.split(":")
+            spec = replace(stress_scene(category, int(seed)), n_frames=args.frames)
+            w, h = spec.rig.width, spec.rig.height
+        else:
+            spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)
         renderer = SceneRenderer(spec)
         frames = [renderer.pair(i) for i in range(spec.n_frames)]
         base = spec.config()
@@ -61,7 +74,7 @@ def main() -> int:
         for label, med in bench_in_turn(frames, renderer.rig, configs, args.rounds).items():
             print(
                 f"| {w}x{h} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | "
-                f"{med['evidence']:.2f} | {med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} |",
+                f"{med['evidence']:.2f} | {med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} | {med['clusters']:.2f} |",
                 flush=True,
             )
     print(f"load average at end: {os.getloadavg()[0]:.1f}", file=sys.stderr)

@@ -66,6 +66,7 @@ class TrackEstimate:
     reported: bool = False  # written to tracks.csv: confirmed, or coasting for at most tracks.report_coasting s
     flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
     settled: bool = False  # it has moved since it was first past tentative, or lived a while: its ball is no ghost (tracks/manager.py)
+    travelled: bool = False  # it has moved across a camera's line of sight since it was first past tentative: no scenery
     # The frame it is confirmed: its hits while tentative, each (time, position, 3 x 3 covariance, n_particles), for the
     # tracks.csv to write in hindsight (a ball is in the file from the frame it was first seen, not confirm_time later).
     before: tuple = ()
@@ -92,10 +93,12 @@ class TrackedBalls:
     targets: tuple[str, ...]  # B target names
     confirmed: np.ndarray  # B bool: seen at the latest update (else coasting)
     settled: np.ndarray | None = None  # B bool: the ball may keep the background from learning its disc (None: every ball)
+    travelled: np.ndarray | None = None  # B bool: the ball has moved, it is no scenery (None: every ball)
 
     def __post_init__(self):
-        if self.settled is None:
-            object.__setattr__(self, "settled", np.ones(len(self.centres), dtype=bool))
+        for name in ("settled", "travelled"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.ones(len(self.centres), dtype=bool))
 
     @classmethod
     def from_tracks(cls, tracks: Sequence[TrackEstimate], radius: Mapping[str, float], tentative: Sequence[str] = ()) -> TrackedBalls:
@@ -109,6 +112,7 @@ class TrackedBalls:
             tuple(t.target for t in live),
             np.array([t.state == "confirmed" for t in live], dtype=bool),
             np.array([t.settled for t in live], dtype=bool),
+            np.array([t.travelled for t in live], dtype=bool),
         )
 
     def __len__(self) -> int:
@@ -127,6 +131,7 @@ class TrackedBalls:
             tuple(np.array(self.targets, dtype=object)[keep]),
             self.confirmed[keep],
             self.settled[keep],
+            self.travelled[keep],
         )
 
     def confirmed_only(self) -> TrackedBalls:

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..evidence.gather import CameraEvidence
 
 RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
 RING_MARGIN_PX = (2.0, 4.0)  # ... at least this far outside the disc, and this wide: clear of its blurred edge
@@ -31,6 +32,10 @@ OWN_PX, AWAY_PX = 2.0, 4.0  # pixels of disparity: within this of the object's d
 # balls' rings (hue_wall, static_props tune seeds 48-59, 90 frames) never match best at their own depth; a book's end on a
 # shelf (hue_wall 18) 4.6-4.9 times better there, a speck on a poster at 20 m (fast_ball 47) 5.7-9.3 where it does.
 SURFACE_RATIO = 2.0
+# A verdict is kept this long for an object still at the spot judged (within SAME_SPOT of its radius): scenery stays where
+# it is, and judging costs a few hundred samples per depth searched; judged again after it, in case the first was wrong
+VERDICT_SECONDS = 0.5
+SAME_SPOT = 0.5
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
 
@@ -102,3 +107,54 @@ def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], i
     ratios = np.array([surface_ratio(position, radius, cameras[0], b, images[0], images[k]) for k, b in enumerate(cameras[1:], 1)])
     told = ratios[np.isfinite(ratios)]
     return bool(len(told)) and bool((told >= SURFACE_RATIO).all())
+
+
+def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
+    """Is no pixel of the moving map in the box of a ball's disc at ``position`` in any view? (False without motion.)"""
+    for v in views:
+        if v.moving_integral is None:
+            return False
+        uv, front, z = v.camera.view(np.asarray(position, float)[None])
+        if not front[0] or not np.isfinite(uv).all():
+            continue
+        r = float(v.camera.apparent_radius(radius, z[0])) + 1.0
+        table = v.moving_integral
+        h, w = table.shape[0] - 1, table.shape[1] - 1
+        x0, x1 = (int(np.clip(c, 0, w)) for c in (uv[0, 0] - r, uv[0, 0] + r + 1))
+        y0, y1 = (int(np.clip(c, 0, h)) for c in (uv[0, 1] - r, uv[0, 1] + r + 1))
+        if table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0:
+            return False
+    return True
+
+
+class SurfacePatches:
+    """One target's still objects judged patches of a surface or not (``on_surface``), each verdict remembered for
+    VERDICT_SECONDS while an object stays at its spot: a stage object the tracker keeps, one per target."""
+
+    def __init__(self, radius: float, cameras: Sequence[Camera]):
+        self.radius = radius
+        self.cameras = tuple(cameras)
+        self.spots = np.zeros((0, 3))  # K x 3: where objects were judged ...
+        self.verdicts = np.zeros(0, bool)  # ... on a surface or not ...
+        self.times = np.zeros(0)  # ... and when
+
+    def drop(
+        self, objects: Sequence, views: Sequence[CameraEvidence], images: Sequence[np.ndarray], travelled: np.ndarray, now: float
+    ) -> np.ndarray:
+        """Per object: is it a patch of the surface it is seen on? Only an object still in every view (``still``) and
+        two radii or more from every ball that has travelled (``travelled``, B x 3: a ball that moved is no scenery,
+        wherever it came to rest) is judged; the others are not dropped."""
+        fresh = (now - self.times <= VERDICT_SECONDS) & (now >= self.times)
+        self.spots, self.verdicts, self.times = self.spots[fresh], self.verdicts[fresh], self.times[fresh]
+        out = np.zeros(len(objects), bool)
+        for k, o in enumerate(objects):
+            if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
+                continue
+            near = np.flatnonzero(np.linalg.norm(self.spots - o.position, axis=1) < SAME_SPOT * self.radius)
+            if len(near):
+                out[k] = self.verdicts[near[0]]
+                continue
+            out[k] = on_surface(o.position, self.radius, self.cameras, images)
+            self.spots = np.vstack([self.spots, o.position])
+            self.verdicts, self.times = np.r_[self.verdicts, out[k]], np.r_[self.times, now]
+        return out

@@ -27,10 +27,10 @@ from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
 from ..objects.explain import ExplainSettings, explain
-from ..objects.surface import on_surface
+from ..objects.surface import SurfacePatches
 from ..particles.population import Population
 from ..results import FrameResult, Object3D, ParticleSet, Rays, TrackedBalls
-from ..tracks.manager import TRAVEL, TrackManager
+from ..tracks.manager import TrackManager
 
 
 class Tracker:
@@ -66,8 +66,7 @@ class Tracker:
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.radius = {t.name: t.radius for t in config.targets}
         self.identities = TrackManager(config.tracks, rig, self.radius)
-        self.first_shown: dict[int, np.ndarray] = {}  # per live track past tentative: where it was first shown ...
-        self.travelled: set[int] = set()  # ... and the live tracks that have gone TRAVEL of their radii from there (_off_surfaces)
+        self.surfaces = {t.name: SurfacePatches(t.radius, rig.cameras) for t in config.targets} if config.tracker.surfaces else {}
         # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
         # reads that grid's image too (and keeps half its size, motion.py).
         smallest = min(t.radius for t in config.targets)
@@ -181,16 +180,14 @@ class Tracker:
             ]
             occluders = balls.others(t.name) if s.occlusion else None
             kept_objects, into = explain(candidates, views[t.name], self.explain_settings[t.name], balls.of(t.name), occluders)
-            kept_objects, into = self._off_surfaces(
-                kept_objects, into, views[t.name], t.radius, pair.images, self._travelled(balls.of(t.name))
-            )
+            if t.name in self.surfaces:
+                kept_objects, into = self._off_surfaces(kept_objects, into, views[t.name], pair.images, balls.of(t.name), now)
             remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
             objects.extend(kept_objects)
             particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))
         t4 = time.perf_counter()
         timings["clusters"] = 1e3 * (t4 - t3)
         tracks = self.identities.update(objects, now)
-        self._note_travels(tracks)
         for population in self.populations.values():
             population.follow(tracks)
         t5 = time.perf_counter()
@@ -250,39 +247,19 @@ class Tracker:
         }
         return cm, views, (1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
 
-    def _off_surfaces(self, objects: list[Object3D], into: np.ndarray, views, radius: float, images, travelled: np.ndarray) -> tuple:
-        """The objects less those that are still in every view (no pixel of their disc moves), away from every track that has
-        travelled (``travelled``: their balls' centres; a ball that moved is no scenery, wherever it came to rest), and lie on
-        the surface they are seen on (objects/surface.py: a patch of a wall, a book's end, of the ball's colour); with
-        ``into`` renumbered. Without motion nothing is known still, and every object stays."""
-        if not objects or not self.config.tracker.surfaces or any(v.moving_integral is None for v in views):
+    def _off_surfaces(self, objects: list[Object3D], into: np.ndarray, views, images, balls: TrackedBalls, now: float) -> tuple:
+        """The objects less those that are patches of the surface they are seen on (objects/surface.py: a still object
+        away from every ball that has travelled, whose surround matches between views at its own depth: a book's end, a
+        poster's corner of the ball's colour); with ``into`` renumbered."""
+        if not objects:
             return objects, into
-        drop = [
-            not _moves(o.position, radius, views)
-            and not (np.linalg.norm(travelled - o.position, axis=1) < 2 * radius).any()
-            and on_surface(o.position, radius, self.rig.cameras, images)
-            for o in objects
-        ]
-        if not any(drop):
+        drop = self.surfaces[objects[0].target].drop(objects, views, images, balls.where(balls.travelled).centres, now)
+        if not drop.any():
             return objects, into
-        new = np.cumsum([not d for d in drop]) - 1
-        gone = np.array(drop)[np.maximum(into, 0)]
+        new = np.cumsum(~drop) - 1
+        gone = drop[np.maximum(into, 0)]
         into = np.where((into >= 0) & ~gone, new[np.maximum(into, 0)], -1)
         return [o for o, d in zip(objects, drop) if not d], into
-
-    def _note_travels(self, tracks) -> None:
-        """Where each live track past tentative was first shown, and which have travelled since (``travelled``)."""
-        live = {e.track_id: e for e in tracks if e.state != "tentative"}
-        self.first_shown = {k: self.first_shown.get(k, e.position) for k, e in live.items()}
-        self.travelled = {
-            k
-            for k, e in live.items()
-            if k in self.travelled or np.linalg.norm(e.position - self.first_shown[k]) > TRAVEL * self.radius[e.target]
-        }
-
-    def _travelled(self, balls: TrackedBalls) -> np.ndarray:
-        """The centres (B x 3) of the tracked balls that have travelled (``travelled``)."""
-        return balls.centres[np.array([int(k) in self.travelled for k in balls.track_ids], bool).reshape(-1)]
 
     def _faint(self, target, j: int, small_halved: np.ndarray | None) -> Faint | None:
         """Where camera j's faint changes may hold a streak of ``target`` (a coloured one: motion.py's FAINT_SHARE)."""
@@ -336,22 +313,6 @@ def evidence_scale(s, camera: Camera, radius: float) -> int:
         return s.evidence_scale
     large = camera.focal_px * radius / s.d_max >= HALF_GRID_MIN_RADIUS_PX
     return 2 if camera.width >= HALF_GRID_MIN_WIDTH and large and s.likelihood == "ball_shape" else 1
-
-
-def _moves(position: np.ndarray, radius: float, views) -> bool:
-    """Does any pixel of the moving map lie in the box of a ball's disc at ``position`` in some view?"""
-    for v in views:
-        uv, front, z = v.camera.view(np.asarray(position, float)[None])
-        if not front[0] or not np.isfinite(uv).all():
-            continue
-        r = float(v.camera.apparent_radius(radius, z[0])) + 1.0
-        h, w = v.moving_integral.shape[0] - 1, v.moving_integral.shape[1] - 1
-        x0, x1 = (int(np.clip(c, 0, w)) for c in (uv[0, 0] - r, uv[0, 0] + r + 1))
-        y0, y1 = (int(np.clip(c, 0, h)) for c in (uv[0, 1] - r, uv[0, 1] + r + 1))
-        table = v.moving_integral
-        if table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0:
-            return True
-    return False
 
 
 class _InThisThread:

@@ -95,6 +95,7 @@ class _Track:
     first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
+    travelled: bool = False  # see ``TrackManager._travelled``
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
     past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
@@ -154,6 +155,7 @@ class TrackManager:
             if tr.confirmed:  # the frames it was past tentative, counted as ``predicted`` showed them
                 tr.settled = self._settled(tr, tr.x[:3])
                 tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
+                tr.travelled = tr.travelled or self._travelled(tr, tr.x[:3])
                 tr.shown += 1
         self._forget_catches_of_seen_balls()
         by_target: dict[str, list[int]] = {}
@@ -500,6 +502,24 @@ class TrackManager:
         radius = self.radius.get(tr.target, np.inf)
         return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
 
+    def _travelled(self, tr: _Track, position: np.ndarray) -> bool:
+        """Has this track, at ``position``, gone TRAVEL ball radii from where it was first past tentative, across some
+        camera's line of sight (with a rig; else in any direction)? Scenery does not move: its ball is a thing that moves
+        (``TrackEstimate.travelled``). Across the line of sight, as a camera sees it move: a far still thing's depth is
+        vague along its rays and strays farther than that (hue_wall tune seed 18: a book's end 2.8 m off every ball).
+        Never without the target's radius."""
+        start = position if tr.first_shown is None else tr.first_shown
+        limit = TRAVEL * self.radius.get(tr.target, np.inf)
+        gone = position - start
+        if self.rig is None:
+            return bool(np.linalg.norm(gone) > limit)
+        for cam in self.rig.cameras:
+            ray = start - cam.centre
+            ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
+            if np.linalg.norm(gone - (gone @ ray) * ray) > limit:
+                return True
+        return False
+
     def _smoothed(self, tr: _Track, time: float) -> tuple:
         """Keep this frame's state; give each frame smooth_time old by now, smoothed with every later one of the track's
         (rts_oldest), as (time, position, 3 x 3 covariance), once, oldest first. None is given for a frame the track
@@ -568,6 +588,7 @@ class TrackManager:
             reported=bool(reported),
             flight=tr.parabola,
             settled=settled,
+            travelled=tr.travelled,
             before=tuple(before),
             smoothed=smoothed,
         )

@@ -1,7 +1,11 @@
+from types import SimpleNamespace
+
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
-from stereotrack.objects.surface import SURFACE_RATIO, on_surface, surface_ratio
+from stereotrack.evidence.colour import integral_image
+from stereotrack.objects.surface import SURFACE_RATIO, VERDICT_SECONDS, SurfacePatches, on_surface, surface_ratio
+from stereotrack.results import Object3D
 
 WALL_Y = 3.0  # metres ahead of the rig
 
@@ -56,3 +60,36 @@ def test_an_object_out_of_a_view_is_not_judged():
     images = _draw(rig, True)
     assert np.isnan(surface_ratio(np.array([5.0, 1.0, 0.0]), RADIUS, *rig.cameras, *images))
     assert not on_surface(np.array([5.0, 1.0, 0.0]), RADIUS, rig.cameras, images)
+
+
+def _views(rig, moving_at=None):
+    """Each camera's motion as the surface test reads it: the moving map's summed-area table, empty or with the box of a
+    ball's disc at ``moving_at`` moving."""
+    views = []
+    for cam in rig.cameras:
+        moving = np.zeros((cam.height, cam.width), np.uint8)
+        if moving_at is not None:
+            uv, _, z = cam.view(np.asarray(moving_at, float)[None])
+            r = int(cam.apparent_radius(RADIUS, z[0]))
+            u, v = (int(c) for c in uv[0])
+            moving[v - r : v + r, u - r : u + r] = 1
+        views.append(SimpleNamespace(camera=cam, moving_integral=integral_image(moving)))
+    return views
+
+
+def test_a_still_patch_is_dropped_its_verdict_kept_a_while_and_a_moving_or_travelled_one_never_judged():
+    rig = default_rig()
+    painted = np.array([0.2, WALL_Y, 0.1])
+    patch = [Object3D("pink", painted, np.eye(3) * 1e-4, 1.0, 100)]
+    textured, flat = _draw(rig, True, painted=painted[[0, 2]]), _draw(rig, False, painted=painted[[0, 2]])
+    nothing_travelled = np.zeros((0, 3))
+    patches = SurfacePatches(RADIUS, rig.cameras)
+    assert patches.drop(patch, _views(rig), textured, nothing_travelled, 0.0).tolist() == [True]
+    # Remembered for VERDICT_SECONDS: a flat view (which tells nothing) does not undo it; judged again after
+    assert patches.drop(patch, _views(rig), flat, nothing_travelled, 0.5 * VERDICT_SECONDS).tolist() == [True]
+    assert patches.drop(patch, _views(rig), flat, nothing_travelled, 2.0 * VERDICT_SECONDS).tolist() == [False]
+    # Not judged: a ball that has travelled is there (it came to rest on the wall), or the spot moves in a view
+    fresh = SurfacePatches(RADIUS, rig.cameras)
+    assert fresh.drop(patch, _views(rig), textured, painted[None] + 0.01, 0.0).tolist() == [False]
+    assert fresh.drop(patch, _views(rig, moving_at=painted), textured, nothing_travelled, 0.0).tolist() == [False]
+    assert fresh.drop(patch, _views(rig), textured, nothing_travelled, 0.0).tolist() == [True]

@@ -654,3 +654,24 @@ def test_a_fast_balls_vague_first_hit_does_not_lose_it_its_third():
             if tr.state == "confirmed" and not confirmed:
                 confirmed.append(i)
     assert len(ids) == 1 and confirmed == [2]
+
+
+def test_a_track_travels_when_a_camera_sees_it_move_not_when_its_depth_strays():
+    """``travelled`` (a thing that moves, no scenery: objects near it are not judged patches of a surface, objects/surface.py): a ball
+    that moves across the cameras' view has travelled once two radii from where it was first past tentative; a static
+    thing far off whose depth strays half a metre along its rays (a pixel of disparity) never has."""
+    from scene_helpers import default_rig
+
+    rig = default_rig()
+    fps, radius = 30.0, 0.03
+    far = np.array([0.0, 4.0, 0.0])
+    middle = np.mean([cam.centre for cam in rig.cameras], axis=0)  # a stereo pair's depth strays along the rays' bisector
+    ray = (far - middle) / np.linalg.norm(far - middle)
+    for path, moves in (
+        (lambda t: far + np.array([1.5 * t, 0.0, 0.0]), True),  # across: 5 cm a frame
+        (lambda t: far + 0.5 * np.sin(9.0 * t) * ray, False),  # along the rays: depth noise
+    ):
+        m = TrackManager(TrackSettings(), rig, radius={"red": radius})
+        for i in range(30):
+            tracks = m.update([obj(path(i / fps), sigma=0.3)], i / fps)
+        assert [tr.travelled for tr in tracks if tr.state != "tentative"] == [moves]
