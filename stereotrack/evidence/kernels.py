@@ -363,3 +363,69 @@ def absorb_still_patches(moving, calm, learn, background, previous, absorb_frame
                         for c in range(3):
                             background[y, x, c] = np.float32(previous[y, x, c])
                         moving[y, x] = 0
+
+
+@kernel
+def straight_runs(step, steps, length):
+    """motion._straight's runs: ``step`` (int32, h x w) is each edge pixel's gradient direction in half-windows
+    (0 .. steps - 1, steps even), -1 off the edges. Window k holds steps k and k + 1 (mod steps): the even windows
+    part the circle, and so do the odd ones, so each set is labelled in one pass (union-find over the 8-neighbours
+    in one window). True where a pixel's run in either window has a box whose diagonal is ``length`` or more."""
+    h, w = step.shape
+    n = h * w
+    flat = step.ravel()
+    edge = np.nonzero(flat >= 0)[0]
+    out = np.zeros(n, np.bool_)
+    parent = np.empty(n, np.int32)
+    key = np.full(n, -1, np.int32)
+    x0, y0, x1, y1 = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    for odd in range(2):
+        for i in edge:
+            key[i] = ((flat[i] + steps - odd) % steps) >> 1
+            parent[i] = i
+        for i in edge:
+            k, x = key[i], i % w
+            if x > 0 and key[i - 1] == k:
+                _union(parent, i, i - 1)
+            if i >= w:
+                j = i - w
+                if x > 0 and key[j - 1] == k:
+                    _union(parent, i, j - 1)
+                if key[j] == k:
+                    _union(parent, i, j)
+                if x + 1 < w and key[j + 1] == k:
+                    _union(parent, i, j + 1)
+        for i in edge:  # raster order: a run's root, its first pixel, comes before the rest of it
+            r = _root(parent, i)
+            parent[i] = r
+            if r == i:
+                x0[r], y0[r], x1[r], y1[r] = w, h, -1, -1
+        for i in edge:
+            r, y, x = parent[i], i // w, i % w
+            x0[r], y0[r], x1[r], y1[r] = min(x0[r], x), min(y0[r], y), max(x1[r], x), max(y1[r], y)
+        for i in edge:
+            r = parent[i]
+            if (x1[r] - x0[r] + 1) ** 2 + (y1[r] - y0[r] + 1) ** 2 >= length * length:
+                out[i] = True
+        for i in edge:
+            key[i] = -1
+    return out.reshape(h, w)
+
+
+@kernel(inline="always")
+def _root(parent, i):
+    """Union-find's root of i, halving the path as it goes."""
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@kernel(inline="always")
+def _union(parent, i, j):
+    """Joins the sets of i and j under the smaller root (raster order: a set's root is its first pixel)."""
+    a, b = _root(parent, i), _root(parent, j)
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b
