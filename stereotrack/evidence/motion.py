@@ -174,9 +174,7 @@ def _straight(edges: np.ndarray, direction: np.ndarray, length: float) -> np.nda
     (radians) lies within one window of SHADING_TURN (windows stepped by half of it, so that every direction falls
     wholly inside one) and whose box's diagonal is ``length`` pixels or more. bool."""
     steps = 2 * int(round(2 * np.pi / SHADING_TURN))  # half-windows round the circle
-    step = (direction * (steps / (2 * np.pi))).astype(np.int32) % steps
-    step[edges == 0] = -1
-    return straight_runs(step, steps, float(length))
+    return straight_runs(edges, direction, steps, float(length))
 
 
 def _pale(image: np.ndarray, target) -> np.ndarray:
