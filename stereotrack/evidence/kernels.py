@@ -363,3 +363,82 @@ def absorb_still_patches(moving, calm, learn, background, previous, absorb_frame
                         for c in range(3):
                             background[y, x, c] = np.float32(previous[y, x, c])
                         moving[y, x] = 0
+
+
+@kernel
+def straight_runs(edges, direction, steps, length):
+    """motion._straight's runs: the pixels of ``edges`` (uint8, h x w) whose gradient ``direction`` (float32
+    radians, 0 .. 2 pi) falls in half-windows 0 .. steps - 1 (steps even). Window k holds half-windows k and k + 1
+    (mod steps): the even windows part the circle, and so do the odd ones, so each set is labelled in one raster
+    pass (union-find with the 8-neighbours already seen, in the same window). True where a pixel's run in either
+    window has a box whose diagonal is ``length`` or more."""
+    h, w = edges.shape
+    n = h * w
+    flat, angle = edges.ravel(), direction.ravel()
+    count = 0
+    for i in range(n):
+        count += flat[i] != 0
+    edge = np.empty(count, np.int64)
+    half = np.empty(count, np.int32)
+    scale = steps / (2 * np.pi)
+    count = 0
+    for i in range(n):
+        if flat[i] != 0:
+            edge[count] = i
+            half[count] = int(angle[i] * scale) % steps
+            count += 1
+    out = np.zeros(n, np.bool_)
+    parent = np.empty(n, np.int32)
+    key = np.full(n, -1, np.int32)
+    x0, y0, x1, y1 = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    for odd in range(2):
+        for t in range(count):  # raster order: the neighbours left and above are labelled already
+            i = edge[t]
+            k = ((half[t] + steps - odd) % steps) >> 1
+            key[i], parent[i] = k, i
+            x = i % w
+            if x > 0 and key[i - 1] == k:
+                _union(parent, i, i - 1)
+            if i >= w:
+                j = i - w
+                if x > 0 and key[j - 1] == k:
+                    _union(parent, i, j - 1)
+                if key[j] == k:
+                    _union(parent, i, j)
+                if x + 1 < w and key[j + 1] == k:
+                    _union(parent, i, j + 1)
+        for t in range(count):  # a run's root is its first pixel, met before the rest of it
+            i = edge[t]
+            r = _root(parent, i)
+            parent[i] = r
+            y, x = i // w, i % w
+            if r == i:
+                x0[r], y0[r], x1[r], y1[r] = x, y, x, y
+            else:
+                x0[r], y0[r], x1[r], y1[r] = min(x0[r], x), min(y0[r], y), max(x1[r], x), max(y1[r], y)
+        for t in range(count):
+            i = edge[t]
+            r = parent[i]
+            if (x1[r] - x0[r] + 1) ** 2 + (y1[r] - y0[r] + 1) ** 2 >= length * length:
+                out[i] = True
+            key[i] = -1
+    return out.reshape(h, w)
+
+
+@kernel(inline="always")
+def _root(parent, i):
+    """Union-find's root of i, halving the path as it goes."""
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@kernel(inline="always")
+def _union(parent, i, j):
+    """Joins the sets of i and j under the smaller root (raster order: a set's root is its first pixel)."""
+    a, b = _root(parent, i), _root(parent, j)
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b

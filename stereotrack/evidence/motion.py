@@ -29,7 +29,7 @@ import numpy as np
 from ..camera import Camera
 from ..config import Target
 from ..results import TrackedBalls
-from .kernels import absorb_still_patches, background_step, frame_gain
+from .kernels import absorb_still_patches, background_step, frame_gain, straight_runs
 
 SCALE = 2  # the background is kept at 1 / SCALE of the image's width and height
 KEEP_OUT_MARGIN = 1.5  # the discs kept out of the background update, in ball radii (a ball moves between frames)
@@ -86,6 +86,16 @@ SHADING_CONTRAST = (
     40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
 )
 SHADING_HOLE = 0.6  # a hole in the map (a ball's flat, lit centre) is filled when smaller than a disc of this many ball radii
+# A ball at rest against the room's long edges (wall and ceiling, wall and floor, a table's front) joins them in the
+# map, and the joined patch spans the image. The edges are straight: their gradient keeps one direction along their
+# length, where a ball's rim turns. Within one window of SHADING_TURN radians of gradient direction a rim's arc spans
+# 2 sin(SHADING_TURN / 2) = 0.77 of its radius; a run of edge pixels as long as SHADING_STRAIGHT of the nearest ball's
+# radii is a straight edge of the room, taken off the map (and off the ring a patch must be alone in) before the
+# patches are labelled.
+SHADING_TURN = np.pi / 4
+SHADING_STRAIGHT = 2.0
+SHADING_WAYS = 8  # a patch must hold gradient pointing in each of this many directions (white_ball tune 0-59: 504 of 507 balls' patches do, 39 of 279 others)
+SHADING_DISC = 0.85  # a patch cut off a straight edge fills this share of its box's ellipse and lies this share or more inside it
 
 
 def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndarray:
@@ -95,13 +105,17 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     with the holes smaller than a disc of SHADING_HOLE x ``near_px`` filled (a ball's lit centre is flat), kept in
     the patches round like a ball and as wide as one between ``far_px`` and ``near_px`` radii (the ball's apparent
     radius on this grid at the farthest and nearest depths). A wall's edges, a shelf's books and a floor's texture are
-    lines, networks and specks; a flat wall is empty. uint8 0/1."""
+    lines, networks and specks; a flat wall is empty. The room's straight edges are taken off first (a ball at rest
+    against one would join it), and a patch must hold gradient pointing every way, as a ball's rim does. uint8 0/1."""
     grey = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (3, 3), 0).astype(np.float32)
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
     edges = cv2.threshold(cv2.magnitude(gx, gy), 8.0 * SHADING_MIN, 1, cv2.THRESH_BINARY)[1].astype(np.uint8)  # Sobel weighs a step 8 times
     low = int(np.ceil(SHADING_VALUE * target.hsv_min[2]))
     pale = cv2.inRange(cv2.cvtColor(image, cv2.COLOR_BGR2HSV), (0, 0, low), (255, target.hsv_max[1], 255))  # 0 / 255
+    direction = cv2.phase(gx, gy)  # of the gradient, radians 0 .. 2 pi
+    straight = _straight(edges, direction, SHADING_STRAIGHT * near_px)
+    edges[straight] = 0
     out = cv2.bitwise_and(edges, edges, mask=pale)
     shaded = out.copy()  # before the holes are filled
     h, w = out.shape
@@ -135,9 +149,32 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
         np.maximum.at(top, mine, grey[candidates])
         np.minimum.at(bottom, mine, grey[candidates])
         keep &= top - bottom >= SHADING_CONTRAST
+    if keep.any():  # a ball's rim turns all the way round: its gradient points every way, a corner's or a line end's not
+        way = (direction[candidates] * (SHADING_WAYS / (2 * np.pi))).astype(np.int32) % SHADING_WAYS
+        rim = shaded[candidates] > 0
+        ways = np.zeros((n, SHADING_WAYS), bool)
+        ways[mine[rim], way[rim]] = True
+        keep &= ways.all(axis=1)
+    cut = np.bincount(labels[cv2.dilate(straight.astype(np.uint8), None) > 0], minlength=n) > 0
+    if (keep & cut).any():  # a patch cut off a straight edge may be any piece of what the edge bounded (a table's
+        # corner, a picture's inside): it must be a disc on its own, filling the ellipse in its box and little beyond
+        yy, xx = np.nonzero(candidates)
+        cx, cy, a, b = x + (bw - 1) / 2.0, y + (bh - 1) / 2.0, bw / 2.0, bh / 2.0
+        inside = ((xx - cx[mine]) / a[mine]) ** 2 + ((yy - cy[mine]) / b[mine]) ** 2 <= 1.0
+        within = np.bincount(mine[inside], minlength=n)
+        disc = (within >= SHADING_DISC * np.pi * a * b) & (area - within <= (1 - SHADING_DISC) * area)
+        keep &= ~cut | disc
     # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
     # would put the ball nearer than it is.
     return cv2.erode(keep.astype(np.uint8)[labels], _CROSS)
+
+
+def _straight(edges: np.ndarray, direction: np.ndarray, length: float) -> np.ndarray:
+    """The pixels of ``edges`` (uint8 0/1) on straight edges: 8-connected runs whose gradient ``direction``
+    (radians) lies within one window of SHADING_TURN (windows stepped by half of it, so that every direction falls
+    wholly inside one) and whose box's diagonal is ``length`` pixels or more. bool."""
+    steps = 2 * int(round(2 * np.pi / SHADING_TURN))  # half-windows round the circle
+    return straight_runs(edges, direction, steps, float(length))
 
 
 def _pale(image: np.ndarray, target) -> np.ndarray:

@@ -390,6 +390,8 @@ def warm_up() -> None:
         if frame == 0:  # a camera's evidence on a coarser grid than its frames (a wide frame's): picked and halved at once
             coarse = Tracker(rig, Config(targets=(pink, orange), tracker=replace(tracker.config.tracker, evidence_scale=2)))
             coarse.step(FramePair(frame, tuple(images), (frame / 30.0,) * 2))
+    # a white or grey target's shading map (its straight edges' kernel): the scene's balls are coloured
+    shading(np.full((h // 2, w // 2, 3), 200, np.uint8), Target("white", (0, 0, 170), (179, 50, 255), radius), 10.0, 1.0)
 
 
 def compiled_kernels() -> dict[str, int]:

@@ -214,6 +214,35 @@ def test_the_shading_map_shows_a_white_ball_at_rest_on_a_white_wall_and_no_flat_
     assert m.sum() < 2 * np.pi * 8**2  # nothing but the ball
 
 
+def test_the_shading_map_shows_a_white_ball_at_rest_against_the_rooms_long_edges():
+    """A white ball at rest just below the line where the wall meets the ceiling, or beside a door's edge, joins
+    that edge in the shading map: the joined patch spanned the image and was no ball (white_ball tune seeds 29, 48,
+    52). The room's edges are straight, their gradient one direction along their length, where a ball's rim turns:
+    they are taken off the map, and the ball's patch is left on its own. The corner where two edges meet and the
+    end of a line are no balls: their gradient does not point every way."""
+    from stereotrack.config import Target
+
+    cam = default_rig().cameras[0]
+    white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
+    img = _white_room(cam, np.random.default_rng(5))
+    img[:100] = 175  # a grey ceiling above a long edge
+    img[100:, 560:] = 185  # a door's edge, the height of the image
+    cv2.line(img, (60, 300), (400, 300), (120, 120, 120), 3)  # a line that ends on the wall
+    balls = ((300, 117), (543, 300))  # two balls at rest, each 3 pixels from an edge
+    yy, xx = np.mgrid[: cam.height, : cam.width]
+    for x, y in balls:  # a sphere lit from above: 150 on its dark side, 245 where it faces the light
+        nz2 = 1 - ((xx - x) ** 2 + (yy - y) ** 2) / 14.0**2
+        lit = np.clip((np.sqrt(np.clip(nz2, 0, 1)) * 0.5 - (yy - y) / 14.0 * 0.85), 0, 1)
+        img[nz2 >= 0] = (150 + 95 * lit[nz2 >= 0])[:, None].astype(np.uint8)
+    small = halved(img)
+    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
+    m = shading(small, white, seen / 0.5, seen / 5.0)
+    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+    for x, y in balls:
+        assert m[(xx - x / 2) ** 2 + (yy - y / 2) ** 2 <= 25].mean() > 0.9
+    assert m.sum() < 2 * 2 * np.pi * 8**2  # nothing but the balls
+
+
 def test_only_shading_patches_that_touch_no_moving_cell_are_added():
     """A moving white ball is in the moving map already; its shading patch (merged with its trail, or an edge beside it)
     would move its centre. Only the still patches are added (motion.still_only)."""

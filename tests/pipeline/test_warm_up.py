@@ -37,3 +37,4 @@ def test_warm_up_compiles_the_signatures_a_tracker_step_uses():
     # (a kernel only ever called from inside another kernel shows no signature of its own when loaded from the cache)
     assert counts["after"] == counts["before"]
     assert counts["disc_fits"] > 0  # the disc fit ran too
+    assert counts["before"]["stereotrack.evidence.kernels.straight_runs"] == 1  # a white target's, though the run has none
