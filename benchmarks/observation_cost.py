@@ -25,6 +25,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from stereotrack.simulation.stress import scene_name  # noqa: E402
+
 # (label, tracker settings changed from the defaults)
 VARIANTS = [
     ("default (all on)", {}),
@@ -43,7 +45,12 @@ def main() -> int:
     p.add_argument("--sizes", nargs="+", default=["640x480", "1280x720"])
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--frames", type=int, default=60, help="frames per run (the first 10 are warm-up)")
-    p.add_argument("--scene", default="pendulum4", help="pendulum4 (at each of --sizes), or a stress scene CATEGORY:SEED at its own size")
+    p.add_argument(
+        "--scene",
+        default=None,
+        type=scene_name,
+        help="a stress scene CATEGORY:SEED at its own size (default: pendulum4 at each of --sizes)",
+    )
     args = p.parse_args()
 
     from stereotrack.pipeline.bench import bench_in_turn
@@ -56,12 +63,11 @@ def main() -> int:
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores)", file=sys.stderr)
     print("| size | variant | step ms | floor ms | step / floor | evidence (wall) | masks (work) | blobs (work) | particles | objects |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    stress = args.scene != "pendulum4"
+    stress = args.scene is not None
     for size in args.sizes[:1] if stress else args.sizes:
         w, h = (int(x) for x in size.split("x"))
         if stress:
-            category, seed = args.scene.split(":")
-            spec = replace(stress_scene(category, int(seed)), n_frames=args.frames)
+            spec = replace(stress_scene(*args.scene), n_frames=args.frames)
             w, h = spec.rig.width, spec.rig.height
         else:
             spec = make_preset("pendulum4", width=w, height=h, n_frames=args.frames)

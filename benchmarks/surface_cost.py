@@ -19,11 +19,17 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from stereotrack.simulation.stress import scene_name  # noqa: E402
+
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument(
-        "--scenes", nargs="+", default=["hue_wall:16", "hue_wall:18", "static_props:46"], help="stress tune scenes CATEGORY:SEED"
+        "--scenes",
+        nargs="+",
+        default=[("hue_wall", 16), ("hue_wall", 18), ("static_props", 46)],
+        type=scene_name,
+        help="stress tune scenes CATEGORY:SEED",
     )
     p.add_argument("--frames", type=int, default=90)
     args = p.parse_args()
@@ -51,9 +57,9 @@ def main() -> int:
     warm_up()
     print("| scene | verdicts kept | frames | step ms CPU | surface test ms CPU | share of step | judgements |")
     print("|---|---|---|---|---|---|---|")
-    for name in args.scenes:
-        category, seed = name.split(":")
-        spec = replace(stress_scene(category, int(seed)), n_frames=args.frames)
+    for category, seed in args.scenes:
+        name = f"{category}:{seed}"
+        spec = replace(stress_scene(category, seed), n_frames=args.frames)
         renderer = SceneRenderer(spec)
         frames = [renderer.pair(i) for i in range(spec.n_frames)]
         for label, seconds in ((f"{kept_for} s", kept_for), ("none", -1.0)):

@@ -41,6 +41,15 @@ def integral_image(mask: np.ndarray) -> np.ndarray:
     return cv2.integral(mask, sdepth=cv2.CV_32S)
 
 
+def box_counts(table: np.ndarray, x0, y0, x1, y1):
+    """The map's sum over each box [x0, x1) x [y0, y1) (pixels; scalars or arrays, cut to the map's size, taken
+    towards zero), from its summed-area table ``table``: O(1) a box."""
+    h, w = table.shape[0] - 1, table.shape[1] - 1
+    x0, x1 = (np.clip(np.asarray(c), 0, w).astype(int) for c in (x0, x1))
+    y0, y1 = (np.clip(np.asarray(c), 0, h).astype(int) for c in (y0, y1))
+    return table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
+
+
 @dataclass(frozen=True, eq=False)
 class CameraMasks:
     """One camera's masks for every target this frame."""

@@ -43,6 +43,7 @@ import numpy as np
 from ..camera import triangulate_with_covariance
 from ..config import TrackerSettings
 from ..evidence.blobs import short_streaks
+from ..evidence.colour import box_counts
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
 from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
@@ -293,10 +294,7 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
             if short_blurs:
                 swept |= short_streaks(b, v.counted if v.counted is not None else v.mask)
             for k in np.flatnonzero(swept):
-                x0, y0, x1, y1 = (int(c) * b.label_scale for c in b.boxes[k])
-                h, w = v.moving_integral.shape[0] - 1, v.moving_integral.shape[1] - 1
-                x1, y1 = min(x1, w), min(y1, h)
-                moving = v.moving_integral[y1, x1] - v.moving_integral[y0, x1] - v.moving_integral[y1, x0] + v.moving_integral[y0, x0]
+                moving = box_counts(v.moving_integral, *(int(c) * b.label_scale for c in b.boxes[k]))
                 swept[k] = moving >= 0.8 * b.areas[k] and k not in shared[j]
         out.append(swept)
     return out

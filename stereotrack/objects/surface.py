@@ -5,8 +5,7 @@ depth. A patch of a surface of the ball's colour is bounded by the same surface,
 outside it lies at its own depth. So around a still object, the ring just outside its disc is compared between two
 views for surfaces at depths along the viewing ray: when the ring matches best at the object's own depth, and clearly
 better there than at any depth two ball radii (in pixels of disparity) or more away, it is part of the surface it is seen
-on. A
-uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
+on. A uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
 """
 
 from __future__ import annotations
@@ -17,6 +16,7 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..evidence.colour import box_counts
 from ..evidence.gather import CameraEvidence
 
 RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
@@ -118,11 +118,8 @@ def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) 
         if not front[0] or not np.isfinite(uv).all():
             continue
         r = float(v.camera.apparent_radius(radius, z[0])) + 1.0
-        table = v.moving_integral
-        h, w = table.shape[0] - 1, table.shape[1] - 1
-        x0, x1 = (int(np.clip(c, 0, w)) for c in (uv[0, 0] - r, uv[0, 0] + r + 1))
-        y0, y1 = (int(np.clip(c, 0, h)) for c in (uv[0, 1] - r, uv[0, 1] + r + 1))
-        if table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0:
+        cu, cv = uv[0]
+        if box_counts(v.moving_integral, cu - r, cv - r, cu + r + 1, cv + r + 1) > 0:
             return False
     return True
 

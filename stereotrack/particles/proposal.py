@@ -13,6 +13,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..config import TrackerSettings
+from ..evidence.colour import box_counts
 from ..evidence.gather import CameraEvidence
 from ..results import TrackedBalls
 from .kernels import crossing_points
@@ -110,13 +111,8 @@ def _holders(projected: tuple[np.ndarray, np.ndarray], centres: np.ndarray, radi
 
 def _still(view: CameraEvidence) -> np.ndarray:
     """Per blob of the view: no pixel of its box moves (the moving map's summed-area table)."""
-    b, ii = view.blobs, view.moving_integral
-    h, w = ii.shape[0] - 1, ii.shape[1] - 1
-    x0 = np.clip(np.floor(b.centres[:, 0] - b.radii), 0, w).astype(int)
-    x1 = np.clip(np.ceil(b.centres[:, 0] + b.radii) + 1, 0, w).astype(int)
-    y0 = np.clip(np.floor(b.centres[:, 1] - b.radii), 0, h).astype(int)
-    y1 = np.clip(np.ceil(b.centres[:, 1] + b.radii) + 1, 0, h).astype(int)
-    return (ii[y1, x1] - ii[y0, x1] - ii[y1, x0] + ii[y0, x0]) == 0
+    (u, v), r = view.blobs.centres.T, view.blobs.radii
+    return box_counts(view.moving_integral, np.floor(u - r), np.floor(v - r), np.ceil(u + r) + 1, np.ceil(v + r) + 1) == 0
 
 
 def frustum_particles(camera: Camera, n: int, d_min: float, d_max: float, rng: np.random.Generator) -> np.ndarray:

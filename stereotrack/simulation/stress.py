@@ -11,6 +11,7 @@ for the ball (``typed_target``), never a range fitted to the render.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import zlib
 from collections.abc import Callable
@@ -383,3 +384,11 @@ def stress_scene(category: str, seed: int) -> SceneSpec:
     """The scene of ``category`` for ``seed``: always the same one, and unrelated to every other seed's."""
     rng = np.random.default_rng([zlib.crc32(category.encode()), int(seed)])
     return CATEGORIES[category](int(seed), rng)
+
+
+def scene_name(text: str) -> tuple[str, int]:
+    """argparse type for a stress scene named ``CATEGORY:SEED`` (the benchmarks' ``--scene``): (category, seed)."""
+    category, _, seed = text.partition(":")
+    if category not in CATEGORIES or not seed.isdigit():
+        raise argparse.ArgumentTypeError(f"expected CATEGORY:SEED with CATEGORY one of {', '.join(CATEGORIES)}, got {text!r}")
+    return category, int(seed)

@@ -4,7 +4,7 @@ import pytest
 
 from stereotrack.config import Target
 from stereotrack.errors import StereotrackError
-from stereotrack.evidence.colour import camera_masks, learn_target, target_mask, to_hsv
+from stereotrack.evidence.colour import box_counts, camera_masks, integral_image, learn_target, target_mask, to_hsv
 
 
 def hsv_image(h, s, v, shape=(4, 4)):
@@ -53,3 +53,14 @@ def test_learn_target_covers_ball_not_background(bgr):
 def test_learn_target_rejects_roi_outside_image():
     with pytest.raises(StereotrackError, match="not inside"):
         learn_target(np.zeros((10, 10, 3), np.uint8), (5, 5, 10, 10), "x")
+
+
+def test_box_counts_are_the_maps_sums_over_boxes_cut_to_the_map():
+    rng = np.random.default_rng(5)
+    mask = (rng.random((30, 40)) < 0.3).astype(np.uint8)
+    table = integral_image(mask)
+    x0, y0 = rng.integers(-5, 40, 50), rng.integers(-5, 30, 50)
+    x1, y1 = x0 + rng.integers(0, 20, 50), y0 + rng.integers(0, 20, 50)
+    want = [int(mask[max(b, 0) : max(d, 0), max(a, 0) : max(c, 0)].sum()) for a, b, c, d in zip(x0, y0, x1, y1)]
+    assert box_counts(table, x0, y0, x1, y1).tolist() == want
+    assert box_counts(table, 2.7, 3.2, 9.9, 8.0) == mask[3:8, 2:9].sum()  # pixel coordinates taken towards zero

@@ -1,6 +1,7 @@
 """Stress scenes (simulation/stress.py): each category holds what it claims, a seed always gives the same scene,
 and the target is what a user would type."""
 
+import argparse
 import dataclasses
 
 import numpy as np
@@ -11,7 +12,7 @@ from stereotrack.evidence.colour import target_mask, to_hsv
 from stereotrack.simulation.render import MOVER_IDS, SceneRenderer
 from stereotrack.simulation.rooms import bgr_to_hsv, hue_distance
 from stereotrack.simulation.shapes import TAG_SCENERY, TAG_TARGET_COLOURED, Ellipsoid
-from stereotrack.simulation.stress import CATEGORIES, seeds, stress_scene
+from stereotrack.simulation.stress import CATEGORIES, scene_name, seeds, stress_scene
 
 
 def small(spec, scale=0.5):
@@ -195,3 +196,10 @@ def test_a_fast_ball_is_a_streak_as_long_as_its_speed_says():
         assert np.linalg.norm(ends[1] - ends[0]) > radius_px  # smeared by half a ball or more: a streak
         checked += 1
     assert checked >= 1
+
+
+def test_a_stress_scene_is_named_category_colon_seed():
+    assert scene_name("hue_wall:18") == ("hue_wall", 18)
+    for bad in ("nope:3", "hue_wall:x", "hue_wall", ":4", "hue_wall:-1"):
+        with pytest.raises(argparse.ArgumentTypeError, match="CATEGORY:SEED"):
+            scene_name(bad)
