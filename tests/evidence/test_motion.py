@@ -139,6 +139,15 @@ def test_a_white_ball_moving_on_a_white_wall_is_a_whole_disc_in_the_moving_map_a
     assert typed.moving[disc].mean() < 0.6
 
 
+def _tracked_white_ball(cam, pixel, radius_px, settled=True):
+    """A tracked white ball camera ``cam`` sees centred at ``pixel``, 1.5 m along its ray, ``radius_px`` pixels in
+    radius, as the tracks give it (``settled`` or new)."""
+    origins, directions = cam.rays(np.array([pixel], float))
+    point = origins[0] + 1.5 * directions[0]
+    radius = radius_px * cam.view(point[None])[2][0] / cam.focal_px
+    return TrackedBalls(point[None], np.array([radius]), np.array([1]), ("white",), np.array([True]), np.array([settled]))
+
+
 def _white_room(cam, rng, balls=()):
     """A white wall (with sensor noise) and white balls on it, each a disc with a lit top and a shaded grey bottom."""
     img = np.clip(np.full((cam.height, cam.width, 3), 215.0) + rng.normal(0, 2, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
@@ -268,10 +277,7 @@ def test_a_white_balls_ghost_beside_the_ball_under_a_settled_track_is_learnt():
     rng = np.random.default_rng(5)
     start = (200, 240)
     moved = (start[0] + 14, start[1])  # a radius (14 px) on, then a pixel a frame
-    origins, directions = cam.rays(np.array([start], float))
-    point = origins[0] + 1.5 * directions[0]
-    radius = 14 * cam.view(point[None])[2][0] / cam.focal_px
-    held = TrackedBalls(point[None], np.array([radius]), np.array([1]), ("white",), np.array([True]), np.array([True]))
+    held = _tracked_white_ball(cam, start, 14)
     white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
     for floor in (None, 100):  # a white wall behind, or a dark grey one (a floor, a shelf's shadow)
 
@@ -307,10 +313,7 @@ def test_a_white_ball_at_rest_before_a_shelf_keeps_its_flat_centre_under_its_tra
     cam = default_rig().cameras[0]
     rng = np.random.default_rng(7)
     centre = (300, 240)
-    origins, directions = cam.rays(np.array([centre], float))
-    point = origins[0] + 1.5 * directions[0]
-    radius = 20 * cam.view(point[None])[2][0] / cam.focal_px
-    held = TrackedBalls(point[None], np.array([radius]), np.array([1]), ("white",), np.array([True]), np.array([True]))
+    held = _tracked_white_ball(cam, centre, 20)
     white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
 
     def shelf(ball=False):
@@ -402,10 +405,7 @@ def test_a_white_ball_at_rest_under_a_new_track_is_not_learnt_and_leaves_no_ghos
     cam = default_rig().cameras[0]
     rng = np.random.default_rng(3)
     rest = (300, 240)
-    origins, directions = cam.rays(np.array([rest], float))
-    point = origins[0] + 1.5 * directions[0]
-    radius = 14 * cam.view(point[None])[2][0] / cam.focal_px
-    new = TrackedBalls(point[None], np.array([radius]), np.array([1]), ("white",), np.array([True]), np.array([False]))
+    new = _tracked_white_ball(cam, rest, 14, settled=False)
     white = Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
     cells = (slice(rest[1] // 2 - 3, rest[1] // 2 + 4), slice(rest[0] // 2 - 3, rest[0] // 2 + 4))
 
