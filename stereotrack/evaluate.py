@@ -4,6 +4,12 @@ A track matches a true ball when they are closer than the gate (0.1 m by
 default). motmetrics' distance helper returns *squared* distances, so this
 module passes plain Euclidean distances to the accumulator: MOTP is then in
 metres and is reported in millimetres.
+
+A ball that fewer than two cameras see (truth's optional ``visible`` column,
+written by the simulator) has no 3D evidence: it may be tracked but need not
+be. Such a row is neither a miss when no track is near it nor a match, and a
+track that stands on it is not a false positive (MOTChallenge's handling of
+ignored ground truth: assign first, then drop both).
 """
 
 from __future__ import annotations
@@ -51,8 +57,16 @@ class Evaluation:
         return "\n".join(f"{k:>26}: {v}" for k, v in rows)
 
 
-def evaluate(tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: np.ndarray | None = None) -> Evaluation:
-    """tracks: M x 6 (frame, time, id, x, y, z); truth: K x 5 (frame, id, x, y, z)."""
+MIN_VIEWS = 2  # triangulation needs two views: a ball fewer cameras see is optional
+
+
+def evaluate(
+    tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: np.ndarray | None = None, views: np.ndarray | None = None
+) -> Evaluation:
+    """tracks: M x 6 (frame, time, id, x, y, z); truth: K x 5 (frame, id, x, y, z).
+
+    ``views``: K cameras that see some of each true ball (None: every ball is required).
+    """
     try:
         import motmetrics as mm
     except ImportError:  # pragma: no cover - depends on the install
@@ -62,13 +76,16 @@ def evaluate(tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: n
     if frames is None:
         frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
     acc = mm.MOTAccumulator(auto_id=False)
-    t_by_frame = _group(truth, 0)
+    optional = np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
+    t_by_frame = _group(np.column_stack([truth[:, :5], optional]), 0)
     h_by_frame = _group(tracks, 0)
     for f in frames:
-        t = t_by_frame.get(int(f), np.zeros((0, 5)))
+        t = t_by_frame.get(int(f), np.zeros((0, 6)))
         h = h_by_frame.get(int(f), np.zeros((0, 6)))
         d = np.linalg.norm(t[:, None, 2:5] - h[None, :, 3:6], axis=2) if len(t) and len(h) else np.zeros((len(t), len(h)))
         d = np.where(d <= gate, d, np.nan)
+        if t[:, 5].any():
+            t, h, d = _without_optional(t, h, d)
         acc.update(t[:, 1].astype(int).tolist(), h[:, 2].astype(int).tolist(), d, frameid=int(f))
     mh = mm.metrics.create()
     s = mh.compute(
@@ -110,6 +127,19 @@ def evaluate(tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: n
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),
         gate_m=gate,
     )
+
+
+def _without_optional(t: np.ndarray, h: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A frame's truth, tracks and gated distances without its optional balls and the tracks assigned to them."""
+    from scipy.optimize import linear_sum_assignment
+
+    keep_h = np.ones(len(h), bool)
+    if len(h):
+        rows, cols = linear_sum_assignment(np.where(np.isnan(d), 1e9, d))
+        hit = np.isfinite(d[rows, cols]) & (t[rows, 5] > 0)
+        keep_h[cols[hit]] = False
+    keep_t = t[:, 5] == 0
+    return t[keep_t], h[keep_h], d[np.ix_(keep_t, keep_h)]
 
 
 def _group(rows: np.ndarray, col: int) -> dict[int, np.ndarray]:

@@ -583,6 +583,15 @@ def read_truth(path: str | Path) -> np.ndarray:
     )
 
 
+def read_truth_views(path: str | Path) -> np.ndarray | None:
+    """truth.csv's optional ``visible`` column (how many cameras see some of each row's ball), or None without one."""
+    first = read_text(Path(path), "ground-truth file", max_bytes=MAX_CSV_BYTES).partition("\n")[0]
+    if [h.strip() for h in first.split(",")][5:6] != ["visible"]:
+        return None
+    columns = ["frame", "object_id", "x", "y", "z", "visible"]
+    return read_columns(path, columns, "ground-truth file", whole=("frame", "object_id", "visible"), nonnegative=("frame", "visible"))[:, 5]
+
+
 def __getattr__(name: str):
     """Names that moved out of this module (``RecordingSink``, now in sinks/recorder.py) still import from here."""
     from ._compat import moved_name

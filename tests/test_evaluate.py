@@ -36,3 +36,22 @@ def test_offsets_misses_false_positives_and_switches():
     # MOTP in mm over matches: 20 matches at 30 mm and 15 at 0 mm.
     assert ev.motp_mm == pytest.approx(1e3 * (20 * 0.03) / 35, rel=1e-6)
     assert ev.p95_error_mm == pytest.approx(30.0, rel=1e-6)
+
+
+def test_a_ball_fewer_than_two_cameras_see_is_optional():
+    """Hidden in every view (or seen by one): not a miss when untracked, not a false positive when a track stands on it."""
+    truth = truth_rows(20)
+    views = np.where((truth[:, 1] == 1) & (truth[:, 0] >= 10), 0, 2)  # ball 1 goes behind a wall at frame 10
+    views[(truth[:, 1] == 1) & (truth[:, 0] == 15)] = 1  # and shows in one camera at frame 15
+    untracked = np.array([[r[0], 0, r[1] + 1, *r[2:5]] for r in truth if r[1] == 0 or r[0] < 10], float)
+    coasting = np.array([[r[0], 0, r[1] + 1, *r[2:5]] for r in truth], float)
+    strict = evaluate(untracked, truth)
+    assert strict.misses == 10 and strict.mota == pytest.approx(0.75)
+    for tracks in (untracked, coasting):
+        ev = evaluate(tracks, truth, views=views)
+        assert ev.misses == 0 and ev.false_positives == 0 and ev.id_switches == 0
+        assert ev.truth_objects == 30 and ev.matches == 30 and ev.mota == pytest.approx(1.0)
+    # A track elsewhere while the ball is hidden is still a false positive; the hidden ball claims one track only.
+    stray = np.vstack([coasting, [[12, 0, 7, 2.0, 2.0, 2.0], [12, 0, 8, 0.52, 0.0, 1.5]]])
+    ev = evaluate(stray, truth, views=views)
+    assert ev.false_positives == 2  # the far one, and the second track on the hidden ball

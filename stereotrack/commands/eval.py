@@ -2,7 +2,10 @@
 
 MOTA, MOTP (mm), misses, false positives and id switches, with a distance
 gate (a track further than the gate from a true ball does not match it),
-plus the mean and 95th-percentile 3D error of the matches.
+plus the mean and 95th-percentile 3D error of the matches. A ball that
+fewer than two cameras see (truth.csv's optional `visible` column) may be
+tracked but need not be: neither a miss nor, when a track stands on it, a
+false positive (--count-hidden counts it as any other ball).
 
 example:
   stereotrack eval recordings/demo/tracks.csv recordings/demo/truth.csv
@@ -22,14 +25,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from ..argtypes import number
 
     p.add_argument("--gate", type=number(above=0, hi=1000), default=0.1, help="match distance in metres (default 0.1)")
+    p.add_argument(
+        "--count-hidden",
+        action="store_true",
+        help="require balls that fewer than two cameras see (truth.csv's 'visible' column) like any other; by default they are optional",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
 
 
 def run(args) -> int:
     from ..evaluate import evaluate
-    from ..recording import read_truth
+    from ..recording import read_truth, read_truth_views
     from ..sinks.tracks_csv import read_tracks
 
-    ev = evaluate(read_tracks(args.tracks), read_truth(args.truth), gate=args.gate)
+    views = None if args.count_hidden else read_truth_views(args.truth)
+    ev = evaluate(read_tracks(args.tracks), read_truth(args.truth), gate=args.gate, views=views)
     print(json.dumps(ev.as_dict(), indent=2) if args.json else ev.table())
     return 0

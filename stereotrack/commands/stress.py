@@ -125,7 +125,8 @@ def run(args) -> int:
             + f" --docs {args.docs}` on {datetime.now(UTC):%Y-%m-%d}: {len(jobs)} scenes ({rendered} rendered) in {minutes:.0f} min "
             f"with {args.jobs} job(s) on the shared 2-core machine.",
             f"Report seeds {seeds('report', 1)[0]} to {seeds('report', args.seeds)[-1]} of each category; tuning uses other seeds "
-            "(`--set tune`). The target is the range a user would type for the ball; MOTA as `stereotrack eval` (0.1 m gate).",
+            "(`--set tune`). The target is the range a user would type for the ball; MOTA as `stereotrack eval` (0.1 m gate; "
+            "a ball that fewer than two cameras see is optional).",
             "`particles` is `stereotrack track --method particles` as this checkout configures it: a scene's recording holds "
             "only its typed target (and `fast_ball`'s depth range), every other setting is its default in `stereotrack/config.py`, "
             "so a changed default is what the next run measures; `baseline` is `--method baseline`.",
@@ -320,7 +321,7 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
     A run that fails is a result too: its error goes in the table instead of stopping the other scenes.
     """
     from ..evaluate import evaluate
-    from ..recording import open_recording, read_truth
+    from ..recording import open_recording, read_truth, read_truth_views
     from ..sinks.tracks_csv import read_tracks
     from . import track
 
@@ -337,8 +338,9 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
     seconds = time.perf_counter() - start
     with warnings.catch_warnings():  # an empty tracks.csv is a result here, not news
         warnings.simplefilter("ignore", UserWarning)
-        tracks, truth = read_tracks(out), read_truth(open_recording(folder).truth_path)
-    return {**evaluate(tracks, truth, frames=list(range(n_frames))).as_dict(), "seconds": seconds}
+        truth_path = open_recording(folder).truth_path
+        tracks, truth, views = read_tracks(out), read_truth(truth_path), read_truth_views(truth_path)
+    return {**evaluate(tracks, truth, frames=list(range(n_frames)), views=views).as_dict(), "seconds": seconds}
 
 
 def run_job(job: Job) -> dict:

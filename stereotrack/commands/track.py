@@ -113,7 +113,7 @@ def _track(args, default_out: Path | None, stopper) -> int:
     from ..files import check_output
     from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import close_all, run_pipeline
-    from ..recording import open_recording, read_truth
+    from ..recording import open_recording, read_truth, read_truth_views
     from ..sinks.network import check_network_flags
     from ..sinks.tracks_csv import read_tracks
 
@@ -134,10 +134,10 @@ def _track(args, default_out: Path | None, stopper) -> int:
     # Every output is checked before anything is written; none may be one of the run's inputs.
     inputs = [*rec.own_files, rec.targets_path, args.config, args.calib]
     out = check_output(args.out if args.out is not None else (default_out or rec.folder / "tracks.csv"), "--out", "tracks CSV", inputs)
-    truth = None
+    truth = views = None
     if rec.truth_path:
         try:
-            truth = read_truth(rec.truth_path)
+            truth, views = read_truth(rec.truth_path), read_truth_views(rec.truth_path)
         except StereotrackError as exc:  # scoring is a bonus; never refuse the run for it
             warn(f"not scoring against truth.csv: {exc}")
     sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth, protect=inputs)  # a missing viewer or a taken port: refused here
@@ -203,8 +203,8 @@ def _track(args, default_out: Path | None, stopper) -> int:
 
         try:
             tracks = read_tracks(out)
-            truth_in = truth[np.isin(truth[:, 0], tracked)]
-            ev = evaluate(tracks, truth_in, frames=tracked)
+            scored = np.isin(truth[:, 0], tracked)
+            ev = evaluate(tracks, truth[scored], frames=tracked, views=None if views is None else views[scored])
             scope = f" (scored over the {len(tracked)} frames tracked)" if len(tracked) < stop - args.start else ""
             info(
                 f"against the recording's truth.csv{scope}: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "

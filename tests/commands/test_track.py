@@ -1,5 +1,6 @@
 """`stereotrack track`, `eval` and `colour learn` as a user runs them: real subprocesses on a rendered recording."""
 
+import json
 import re
 import subprocess
 import sys
@@ -32,6 +33,28 @@ def test_track_writes_tracks_and_scores_against_truth(recording, tmp_path):
     ev = cli("eval", out, recording / "truth.csv", "--json")
     assert ev.returncode == 0, ev.stderr
     assert '"id_switches": 0' in ev.stdout
+
+
+def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, tmp_path):
+    out = tmp_path / "tracks.csv"
+    assert cli("track", recording, "--out", out, "--quiet").returncode == 0
+    lines = (recording / "truth.csv").read_text().splitlines()
+    assert lines[0].endswith(",visible")
+    # Ball 0 hidden in every camera from frame 6: its truth rows say so, and its track is cut there.
+    hidden = [",".join([*r.split(",")[:5], "0"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
+    truth = tmp_path / "truth.csv"
+    truth.write_text("\n".join([lines[0], *hidden]) + "\n")
+    tracks = read_tracks(out)
+    first = tracks[tracks[:, 0] == 0][:, 2:6]
+    ball0_id = int(first[np.argmin(np.linalg.norm(first[:, 1:] - [float(v) for v in lines[1].split(",")[2:5]], axis=1)), 0])
+    cut = tmp_path / "cut.csv"
+    head = out.read_text().splitlines()[0]
+    kept = [r for r in out.read_text().splitlines()[1:] if not (int(r.split(",")[2]) == ball0_id and int(r.split(",")[0]) >= 6)]
+    cut.write_text("\n".join([head, *kept]) + "\n")
+    optional = json.loads(cli("eval", cut, truth, "--json").stdout)
+    counted = json.loads(cli("eval", cut, truth, "--json", "--count-hidden").stdout)
+    assert optional["misses"] == 0 and optional["mota"] > 0.99
+    assert counted["misses"] == 6 and counted["mota"] < optional["mota"]
 
 
 def test_target_that_matches_nothing_warns_and_writes_an_empty_file(recording, tmp_path):
