@@ -118,6 +118,10 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     return Blobs(cand.astype(float), count.astype(float), radii)
 
 
+_ALONG = np.linspace(-0.6, 0.6, 7)[None, :, None]  # (_uneven's places along a blob and across it, made once)
+_ACROSS = np.linspace(-1.2, 1.2, 13)[None, None, :]
+
+
 def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """Per blob: is it wider in some places than others along its major axis, as two balls side by side or one
     partly behind another are (a streak is as wide all along its straight part)? Counts the mask's pixels across
@@ -126,8 +130,8 @@ def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.n
     one, whose centroid lies inside the bigger (pendulum4: a ball lost for 4 frames)."""
     if not len(centres):
         return np.zeros(0, bool)
-    along = np.linspace(-0.6, 0.6, 7)[None, :, None] * axes[:, :1, None]  # M x 7 x 1 offsets along the blob
-    across = np.linspace(-1.2, 1.2, 13)[None, None, :] * axes[:, 1:, None]  # M x 1 x 13 offsets across it
+    along = _ALONG * axes[:, :1, None]  # M x 7 x 1 offsets along the blob
+    across = _ACROSS * axes[:, 1:, None]  # M x 1 x 13 offsets across it
     ux, uy = major[:, :1, None], major[:, 1:, None]
     x = np.rint(centres[:, :1, None] + ux * along - uy * across).astype(int).clip(0, mask.shape[1] - 1)
     y = np.rint(centres[:, 1:, None] + uy * along + ux * across).astype(int).clip(0, mask.shape[0] - 1)
