@@ -5,7 +5,9 @@ several tracker variants (N = 2000, alpha = 0.2) against the floor (HSV and a
 threshold per target), each frame floor then step back to back
 (``stereotrack bench``'s ``bench_case``). The variants run in turn, ROUNDS
 times, so a change in the shared machine's load falls on all of them; the
-figure is the median over rounds of each run's median step / floor.
+figure is the median over rounds of each run's median step / floor. The "CPU" columns are the same run in CPU time of
+the process (``time.process_time``, totals over the frames): the shared machine's other jobs stretch the wall clock,
+not these.
 
     .venv/bin/python benchmarks/observation_cost.py                    # 640x480 and 1280x720, 3 rounds
     .venv/bin/python benchmarks/observation_cost.py --sizes 640x480 --rounds 1 --frames 40
@@ -61,8 +63,11 @@ def main() -> int:
 
     warm_up()
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores)", file=sys.stderr)
-    print("| size | variant | step ms | floor ms | step / floor | evidence (wall) | masks (work) | blobs (work) | particles | objects |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(
+        "| size | variant | step ms | floor ms | step / floor | step ms CPU | floor ms CPU | step / floor CPU | "
+        "evidence (wall) | masks (work) | blobs (work) | particles | objects |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     stress = args.scene is not None
     for size in args.sizes[:1] if stress else args.sizes:
         w, h = (int(x) for x in size.split("x"))
@@ -80,6 +85,7 @@ def main() -> int:
         for label, med in bench_in_turn(frames, renderer.rig, configs, args.rounds).items():
             print(
                 f"| {w}x{h} | {label} | {med['step']:.2f} | {med['floor']:.2f} | {med['ratio']:.1f} | "
+                f"{med['step_cpu']:.2f} | {med['floor_cpu']:.2f} | {med['ratio_cpu']:.1f} | "
                 f"{med['evidence']:.2f} | {med['masks']:.2f} | {med['blobs']:.2f} | {med['particles']:.2f} | {med['clusters']:.2f} |",
                 flush=True,
             )

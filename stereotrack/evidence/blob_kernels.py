@@ -164,6 +164,34 @@ def component_measures(mask, labels, n, x0, y0, scale, min_area, width, height, 
     return label_blob, boxes, count, centre, size, second, axes, radii, swept
 
 
+@kernel
+def uneven(mask, centres, major, axes, along, across):
+    """Per blob: wider in some places than others along its major axis (blobs._uneven, which says why): at each of the
+    places ``along`` (offsets in semi-major axes) the mask's pixels counted at the places ``across`` it (in semi-minor
+    axes), rounded half to even and cut to the mask as numpy's rint, astype and clip give; the narrowest count under 70 %
+    of the widest and 3 pixels narrower (counts in pixels: samples 0.2 semi-minor axes apart). The arithmetic of the
+    numpy expression it replaces, in its order, one blob at a time (no M x 7 x 13 temporaries)."""
+    h, w = mask.shape
+    out = np.zeros(centres.shape[0], np.bool_)
+    for m in range(centres.shape[0]):
+        ux, uy, a0, a1 = major[m, 0], major[m, 1], axes[m, 0], axes[m, 1]
+        cx, cy = centres[m, 0], centres[m, 1]
+        step = 0.2 * a1
+        narrowest, widest = np.inf, -np.inf
+        for i in range(along.shape[0]):
+            al = along[i] * a0
+            count = 0
+            for j in range(across.shape[0]):
+                ac = across[j] * a1
+                x = min(max(np.int64(np.rint(cx + ux * al - uy * ac)), 0), w - 1)
+                y = min(max(np.int64(np.rint(cy + uy * al + ux * ac)), 0), h - 1)
+                count += mask[y, x] > 0
+            width = count * step
+            narrowest, widest = min(narrowest, width), max(widest, width)
+        out[m] = narrowest < 0.7 * widest and widest - narrowest > 3.0
+    return out
+
+
 UNMIX_MAX = 10  # a streak's pixel may show the ball for as little as 1 / UNMIX_MAX of the exposure
 
 

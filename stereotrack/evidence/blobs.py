@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .blob_kernels import component_measures, subsampled
+from .blob_kernels import component_measures, subsampled, uneven
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,22 +118,22 @@ def _histogram(mask: np.ndarray, min_area: int) -> Blobs:
     return Blobs(cand.astype(float), count.astype(float), radii)
 
 
+_ALONG = np.linspace(-0.6, 0.6, 7)  # _uneven's places along a blob (semi-major axes) and across it (semi-minor axes)
+_ACROSS = np.linspace(-1.2, 1.2, 13)
+
+
 def _uneven(mask: np.ndarray, centres: np.ndarray, major: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """Per blob: is it wider in some places than others along its major axis, as two balls side by side or one
     partly behind another are (a streak is as wide all along its straight part)? Counts the mask's pixels across
     the blob at 7 places within 0.6 semi-major axes of its centroid (within 1.2 semi-minor axes of the axis):
-    the narrowest under 70 % of the widest and 3 pixels narrower. A check at the centroid alone missed a small ball touching a bigger
-    one, whose centroid lies inside the bigger (pendulum4: a ball lost for 4 frames)."""
+    the narrowest under 70 % of the widest and 3 pixels narrower (the moving map's 2-pixel cells step a thin streak's
+    sides). A check at the centroid alone missed a small ball touching a bigger
+    one, whose centroid lies inside the bigger (pendulum4: a ball lost for 4 frames). Compiled (blob_kernels.uneven):
+    the numpy version's M x 7 x 13 temporaries cost a hue wall's dozens of streak-shaped stripes 1 ms a frame."""
     if not len(centres):
         return np.zeros(0, bool)
-    along = np.linspace(-0.6, 0.6, 7)[None, :, None] * axes[:, :1, None]  # M x 7 x 1 offsets along the blob
-    across = np.linspace(-1.2, 1.2, 13)[None, None, :] * axes[:, 1:, None]  # M x 1 x 13 offsets across it
-    ux, uy = major[:, :1, None], major[:, 1:, None]
-    x = np.rint(centres[:, :1, None] + ux * along - uy * across).astype(int).clip(0, mask.shape[1] - 1)
-    y = np.rint(centres[:, 1:, None] + uy * along + ux * across).astype(int).clip(0, mask.shape[0] - 1)
-    width = (mask[y, x] > 0).sum(axis=2) * (0.2 * axes[:, 1:])  # M x 7, pixels (samples 0.2 semi-minor axes apart)
-    narrowest, widest = width.min(axis=1), width.max(axis=1)
-    return (narrowest < 0.7 * widest) & (widest - narrowest > 3.0)  # the moving map's 2-pixel cells step a thin streak's sides
+    f = np.ascontiguousarray
+    return uneven(mask, f(centres, float), f(major, float), f(axes, float), _ALONG, _ACROSS)
 
 
 _EVERY_ROW = np.zeros(0, np.uint8)

@@ -293,9 +293,10 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
             swept = b.widths != b.radii
             if short_blurs:
                 swept |= short_streaks(b, v.counted if v.counted is not None else v.mask)
-            for k in np.flatnonzero(swept):
-                moving = box_counts(v.moving_integral, *(int(c) * b.label_scale for c in b.boxes[k]))
-                swept[k] = moving >= 0.8 * b.areas[k] and k not in shared[j]
+            ks = np.flatnonzero(swept)
+            if len(ks):  # every candidate's box at once (a hue wall's stripes are dozens a frame)
+                moving = box_counts(v.moving_integral, *(b.boxes[ks] * b.label_scale).T)
+                swept[ks] = (moving >= 0.8 * b.areas[ks]) & np.array([k not in shared[j] for k in ks.tolist()], bool)
         out.append(swept)
     return out
 

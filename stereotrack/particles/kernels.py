@@ -37,21 +37,21 @@ def crossing_points(o1, d1, r1, use1, o2, d2, r2, use2, R1, t1, f1, R2, t2, f2, 
             t = (e - cos * dd) / den
             if not (s > d_min and s < d_max and t > d_min and t < d_max):
                 continue
-            p = np.empty(3)
-            gap = 0.0
-            for i in range(3):
-                p1 = o1[a, i] + s * d1[a, i]
-                p2 = o2[b, i] + t * d2[b, i]
-                p[i] = 0.5 * (p1 + p2)
-                gap += (p1 - p2) ** 2
+            # the midpoint in scalars: an array made per pair that passed the depths cost more than the arithmetic
+            p1, p2 = o1[a, 0] + s * d1[a, 0], o2[b, 0] + t * d2[b, 0]
+            px, gap = 0.5 * (p1 + p2), (p1 - p2) ** 2
+            p1, p2 = o1[a, 1] + s * d1[a, 1], o2[b, 1] + t * d2[b, 1]
+            py, gap = 0.5 * (p1 + p2), gap + (p1 - p2) ** 2
+            p1, p2 = o1[a, 2] + s * d1[a, 2], o2[b, 2] + t * d2[b, 2]
+            pz, gap = 0.5 * (p1 + p2), gap + (p1 - p2) ** 2
             if not math.sqrt(gap) < radius:
                 continue
-            z1 = R1[2, 0] * p[0] + R1[2, 1] * p[1] + R1[2, 2] * p[2] + t1[2]
-            z2 = R2[2, 0] * p[0] + R2[2, 1] * p[1] + R2[2, 2] * p[2] + t2[2]
+            z1 = R1[2, 0] * px + R1[2, 1] * py + R1[2, 2] * pz + t1[2]
+            z2 = R2[2, 0] * px + R2[2, 1] * py + R2[2, 2] * pz + t2[2]
             size1 = abs(math.log(max(r1[a], 0.5) / (f1 * radius / max(z1, 1e-6))))
             size2 = abs(math.log(max(r2[b], 0.5) / (f2 * radius / max(z2, 1e-6))))
             if size1 < log_slack and size2 < log_slack:
-                out[n] = p
+                out[n, 0], out[n, 1], out[n, 2] = px, py, pz
                 n += 1
     return out[:n].copy()
 
