@@ -32,6 +32,12 @@ OWN_PX, AWAY_PX = 2.0, 4.0  # pixels of disparity: within this of the object's d
 # balls' rings (hue_wall, static_props tune seeds 48-59, 90 frames) never match best at their own depth; a book's end on a
 # shelf (hue_wall 18) 4.6-4.9 times better there, a speck on a poster at 20 m (fast_ball 47) 5.7-9.3 where it does.
 SURFACE_RATIO = 2.0
+# ... or this many times better in both directions (the ring taken round the object in camera a and searched along b's
+# epipolar lines, and the other way round): two searches that agree on the object's own depth are less likely a chance
+# match of a plain surround than one is. Still balls' rings (hue_wall, static_props tune seeds 0-59, 121 samples) never
+# match best at their own depth both ways (at most 1.44 one way, 0 the other); a green book's end on a shelf, 1.7 both
+# ways (hue_wall tune seed 68)
+SURFACE_RATIO_BOTH = 1.5
 # A verdict is kept this long for an object still at the spot judged (within SAME_SPOT of its radius): scenery stays where
 # it is, and judging costs a few hundred samples per depth searched; judged again after it, in case the first was wrong
 VERDICT_SECONDS = 0.5
@@ -103,10 +109,17 @@ def surface_ratio(position: np.ndarray, radius: float, a: Camera, b: Camera, ima
 
 def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
     """Is an object at ``position`` a patch of the surface it is seen on (``surface_ratio`` at least SURFACE_RATIO between the
-    first camera and every other that tells)? False when none tells."""
+    first camera and every other that tells, or SURFACE_RATIO_BOTH both ways)? False when none tells."""
     ratios = np.array([surface_ratio(position, radius, cameras[0], b, images[0], images[k]) for k, b in enumerate(cameras[1:], 1)])
-    told = ratios[np.isfinite(ratios)]
-    return bool(len(told)) and bool((told >= SURFACE_RATIO).all())
+    told = np.isfinite(ratios)
+    if not told.any():
+        return False
+    if (ratios[told] >= SURFACE_RATIO).all():
+        return True
+    if (ratios[told] < SURFACE_RATIO_BOTH).any():
+        return False
+    back = [surface_ratio(position, radius, b, cameras[0], images[k], images[0]) for k, b in enumerate(cameras[1:], 1) if told[k - 1]]
+    return bool((np.nan_to_num(back) >= SURFACE_RATIO_BOTH).all())
 
 
 def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:

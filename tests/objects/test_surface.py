@@ -93,3 +93,16 @@ def test_a_still_patch_is_dropped_its_verdict_kept_a_while_and_a_moving_or_trave
     assert fresh.drop(patch, _views(rig), textured, painted[None] + 0.01, 0.0).tolist() == [False]
     assert fresh.drop(patch, _views(rig, moving_at=painted), textured, nothing_travelled, 0.0).tolist() == [False]
     assert fresh.drop(patch, _views(rig), textured, nothing_travelled, 0.0).tolist() == [True]
+
+
+def test_a_surround_that_matches_at_the_objects_depth_both_ways_is_a_surface_at_a_lower_margin(monkeypatch):
+    """Camera 0 -> 1 at least SURFACE_RATIO decides alone; under it, both ways at least SURFACE_RATIO_BOTH (a book's end on
+    a shelf, hue_wall tune seed 68: 1.7 both ways); one way alone under SURFACE_RATIO never does (a still ball, 1.44 one way)."""
+    import stereotrack.objects.surface as surface
+
+    rig = default_rig()
+    a, b = rig.cameras
+    for forth, back, verdict in [(2.5, 0.0, True), (1.7, 1.7, True), (1.7, 0.0, False), (1.44, 1.7, False), (1.7, np.nan, False)]:
+        monkeypatch.setattr(surface, "surface_ratio", lambda p, r, c, d, *_, f=forth, k=back: f if c is a else k)
+        assert on_surface(np.zeros(3), RADIUS, rig.cameras, [None, None]) is verdict, (forth, back)
+    assert surface.SURFACE_RATIO_BOTH < SURFACE_RATIO
