@@ -244,6 +244,7 @@ class BackgroundModel:
         self.threshold = threshold  # grey levels
         self._background: np.ndarray | None = None  # float32, half size
         self._frames = 0  # frames learnt so far (the warm-up's running mean)
+        self.compared = False  # has a frame been compared with a background learnt before it? (the first frame is the background)
         self.behind: np.ndarray | None = None  # the background (uint8 BGR, its grid) as it was before the last frame learnt
         self._previous: np.ndarray | None = None  # uint8, the last frame at that size (after its gain)
         self._calm: np.ndarray | None = None  # uint8, frames in a row each cell has not changed (at most 255)
@@ -276,6 +277,7 @@ class BackgroundModel:
             self._frames = 1
             self.faint = np.zeros(self._background.shape[:2], np.uint8) if self.keep_faint else None
             return np.zeros(self._background.shape[:2], np.uint8)
+        self.compared = True
         learn = np.ones(self._background.shape[:2], np.uint8)
         every, balls = balls, self._moved(balls)
         if balls is not None and len(balls):

@@ -41,6 +41,20 @@ def test_a_static_wall_is_background_and_a_ball_moving_in_front_of_it_is_foregro
     assert fg.sum() < 2 * np.pi * r * r  # the ball and little else
 
 
+def test_the_first_frame_is_the_background_so_nothing_in_it_is_known_to_be_still():
+    """A background's first frame shows no motion because it is the background; ``compared`` says when motion is known
+    (the surface test judges still objects only then: clutter lost a ball for its first 5 frames without it)."""
+    cam = default_rig().cameras[0]
+    ball = np.array([0.3, 1.5, 0.0])
+    bg = BackgroundModel(cam, rate=0.05, threshold=30)
+    assert bg.foreground(frame(cam, ball)).sum() == 0 and not bg.compared
+    bg.foreground(frame(cam, ball))
+    assert bg.compared
+    started = BackgroundModel(cam, rate=0.05, threshold=30)
+    started.start([halved(frame(cam))] * 3)  # a recording's median start: its first frame is compared with it
+    assert started.foreground(frame(cam, ball)).sum() > 0 and started.compared
+
+
 def test_a_tracked_ball_at_rest_stays_foreground_an_untracked_one_fades():
     cam = default_rig().cameras[0]
     rest = np.array([-0.3, 1.5, 0.0])
