@@ -105,11 +105,11 @@ def track(recording: Path, method: str, out_csv: Path) -> dict:
 def score(tracks_csv: Path, recording: Path, n_frames: int) -> dict:
     """The figures of ``stereotrack eval`` (same function, same default gate)."""
     from stereotrack.evaluate import evaluate
-    from stereotrack.recording import open_recording, read_truth, read_truth_views
+    from stereotrack.recording import open_recording, read_truth_and_views
     from stereotrack.sinks.tracks_csv import read_tracks
 
     rec = open_recording(recording)
-    truth, views = read_truth(rec.truth_path), read_truth_views(rec.truth_path)
+    truth, views = read_truth_and_views(rec.truth_path)
     ev = evaluate(read_tracks(tracks_csv), truth, frames=list(range(n_frames)), views=views)
     return ev.as_dict()
 

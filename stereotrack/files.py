@@ -123,9 +123,16 @@ def _children(node: yaml.Node) -> list[yaml.Node]:
 
 
 def read_columns(
-    path: str | Path, columns: Sequence[str], what: str, whole: Sequence[str] = (), nonnegative: Sequence[str] = ()
+    path: str | Path,
+    columns: Sequence[str],
+    what: str,
+    whole: Sequence[str] = (),
+    nonnegative: Sequence[str] = (),
+    optional: Sequence[str] = (),
 ) -> np.ndarray:
-    """The leading ``columns`` of a numeric CSV with a header (extra columns ignored) as an M x len(columns) array.
+    """The leading ``columns`` of a numeric CSV with a header (extra columns ignored) as an M x len(columns) array, and
+    after them those of the ``optional`` columns the header names next, in their order (an earlier version's file may
+    lack them).
 
     Every value must be a finite number; the ``whole`` columns whole numbers, the ``nonnegative`` ones >= 0.
     """
@@ -135,6 +142,10 @@ def read_columns(
     header = [h.strip() for h in first.strip().split(",")]
     if header[: len(columns)] != list(columns):
         raise StereotrackError(f"{path}: line 1: the header must start with {','.join(columns)}; got {first.strip()[:80]!r}")
+    for name in optional:
+        if header[len(columns) : len(columns) + 1] != [name]:
+            break
+        columns = [*columns, name]
     if not body.strip():
         return np.zeros((0, len(columns)))
     try:

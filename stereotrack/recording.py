@@ -578,18 +578,21 @@ def _matched_rig(rig: Rig, calib_path: Path, names: list[str], folder: Path) -> 
 
 def read_truth(path: str | Path) -> np.ndarray:
     """truth.csv -> structured rows as an (M x 5) float array: frame, object_id, x, y, z."""
-    return read_columns(
-        path, ["frame", "object_id", "x", "y", "z"], "ground-truth file", whole=("frame", "object_id"), nonnegative=("frame",)
+    return read_truth_and_views(path)[0]
+
+
+def read_truth_and_views(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """truth.csv -> its rows (``read_truth``) and its optional ``visible`` column (how many cameras see some of each row's
+    ball), or None without one, from one read of the file."""
+    data = read_columns(
+        path,
+        ["frame", "object_id", "x", "y", "z"],
+        "ground-truth file",
+        whole=("frame", "object_id", "visible"),
+        nonnegative=("frame", "visible"),
+        optional=("visible",),
     )
-
-
-def read_truth_views(path: str | Path) -> np.ndarray | None:
-    """truth.csv's optional ``visible`` column (how many cameras see some of each row's ball), or None without one."""
-    first = read_text(Path(path), "ground-truth file", max_bytes=MAX_CSV_BYTES).partition("\n")[0]
-    if [h.strip() for h in first.split(",")][5:6] != ["visible"]:
-        return None
-    columns = ["frame", "object_id", "x", "y", "z", "visible"]
-    return read_columns(path, columns, "ground-truth file", whole=("frame", "object_id", "visible"), nonnegative=("frame", "visible"))[:, 5]
+    return data[:, :5], (data[:, 5] if data.shape[1] > 5 else None)
 
 
 def __getattr__(name: str):

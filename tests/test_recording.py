@@ -11,7 +11,7 @@ import yaml
 
 from stereotrack.camera import save_rig
 from stereotrack.errors import StereotrackError
-from stereotrack.recording import RecordingWriter, open_recording, read_truth, read_truth_views
+from stereotrack.recording import RecordingWriter, open_recording, read_truth, read_truth_and_views
 from stereotrack.simulation.spec import RigSpec
 
 SIZE = (160, 120)
@@ -81,12 +81,12 @@ def test_truth_with_extra_column(tmp_path):
     lines = (folder / "truth.csv").read_text().splitlines()
     assert lines[0] == "frame,object_id,x,y,z,visible" and lines[2] == "0,3,-0.200000,2.000000,0.300000,1"
     assert np.allclose(read_truth(folder / "truth.csv"), [[0, 0, 0.1, 1.2, -0.05], [0, 3, -0.2, 2.0, 0.3]])
-    assert read_truth_views(folder / "truth.csv").tolist() == [2, 1]
+    assert read_truth_and_views(folder / "truth.csv")[1].tolist() == [2, 1]
     (folder / "truth.csv").write_text("frame,object_id,x,y,z\n0,0,0.1,1.2,-0.05\n")  # an earlier version's file
-    assert read_truth_views(folder / "truth.csv") is None
+    assert read_truth_and_views(folder / "truth.csv")[1] is None
     (folder / "truth.csv").write_text("frame,object_id,x,y,z,visible\n0,0,0.1,1.2,-0.05,-1\n")
     with pytest.raises(StereotrackError, match="line 2: 'visible' must be a whole number >= 0"):
-        read_truth_views(folder / "truth.csv")
+        read_truth_and_views(folder / "truth.csv")
 
 
 WRITER = """

@@ -35,10 +35,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from ..evaluate import evaluate
-    from ..recording import read_truth, read_truth_views
+    from ..recording import read_truth_and_views
     from ..sinks.tracks_csv import read_tracks
 
-    views = None if args.count_hidden else read_truth_views(args.truth)
-    ev = evaluate(read_tracks(args.tracks), read_truth(args.truth), gate=args.gate, views=views)
+    truth, views = read_truth_and_views(args.truth)
+    ev = evaluate(read_tracks(args.tracks), truth, gate=args.gate, views=None if args.count_hidden else views)
     print(json.dumps(ev.as_dict(), indent=2) if args.json else ev.table())
     return 0

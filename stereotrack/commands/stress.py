@@ -321,7 +321,7 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
     A run that fails is a result too: its error goes in the table instead of stopping the other scenes.
     """
     from ..evaluate import evaluate
-    from ..recording import open_recording, read_truth, read_truth_views
+    from ..recording import open_recording, read_truth_and_views
     from ..sinks.tracks_csv import read_tracks
     from . import track
 
@@ -338,8 +338,7 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
     seconds = time.perf_counter() - start
     with warnings.catch_warnings():  # an empty tracks.csv is a result here, not news
         warnings.simplefilter("ignore", UserWarning)
-        truth_path = open_recording(folder).truth_path
-        tracks, truth, views = read_tracks(out), read_truth(truth_path), read_truth_views(truth_path)
+        tracks, (truth, views) = read_tracks(out), read_truth_and_views(open_recording(folder).truth_path)
     return {**evaluate(tracks, truth, frames=list(range(n_frames)), views=views).as_dict(), "seconds": seconds}
 
 

@@ -113,7 +113,7 @@ def _track(args, default_out: Path | None, stopper) -> int:
     from ..files import check_output
     from ..pipeline.assemble import make_tracker, open_sinks
     from ..pipeline.run import close_all, run_pipeline
-    from ..recording import open_recording, read_truth, read_truth_views
+    from ..recording import open_recording, read_truth_and_views
     from ..sinks.network import check_network_flags
     from ..sinks.tracks_csv import read_tracks
 
@@ -137,7 +137,7 @@ def _track(args, default_out: Path | None, stopper) -> int:
     truth = views = None
     if rec.truth_path:
         try:
-            truth, views = read_truth(rec.truth_path), read_truth_views(rec.truth_path)
+            truth, views = read_truth_and_views(rec.truth_path)
         except StereotrackError as exc:  # scoring is a bonus; never refuse the run for it
             warn(f"not scoring against truth.csv: {exc}")
     sinks = open_sinks(args, rig, config, tracks_csv=out, truth=truth, protect=inputs)  # a missing viewer or a taken port: refused here
