@@ -584,14 +584,8 @@ def read_truth(path: str | Path) -> np.ndarray:
 def read_truth_and_views(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """truth.csv -> its rows (``read_truth``) and its optional ``visible`` column (how many cameras see some of each row's
     ball), or None without one, from one read of the file."""
-    data = read_columns(
-        path,
-        ["frame", "object_id", "x", "y", "z"],
-        "ground-truth file",
-        whole=("frame", "object_id", "visible"),
-        nonnegative=("frame", "visible"),
-        optional=("visible",),
-    )
+    columns, whole, nonnegative = ["frame", "object_id", "x", "y", "z"], ("frame", "object_id", "visible"), ("frame", "visible")
+    data = read_columns(path, columns, "ground-truth file", whole=whole, nonnegative=nonnegative, optional=("visible",))
     return data[:, :5], (data[:, 5] if data.shape[1] > 5 else None)
 
 
