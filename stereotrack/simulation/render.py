@@ -149,7 +149,10 @@ class SceneRenderer:
         rng = np.random.default_rng([spec.seed, frame])
         n_sub = self._n_sub
         offsets = ((np.arange(n_sub) + 0.5) / n_sub - 0.5) * spec.exposure / spec.fps if n_sub > 1 else np.zeros(1)
-        subs = [self._things(t + dt) for dt in offsets]
+        # The recording starts at time 0: the first frame's exposure is its second half. Before 0 no ball is in the scene,
+        # and those sub-frames drew every ball faded (a third transparent with the stress scenes' 3 sub-frames): a ball at
+        # rest changed from the first frame to the next, and the background model saw it move (hue_wall tune seed 36).
+        subs = [self._things(max(t + dt, 0.0)) for dt in offsets]
         images, visible = [], np.zeros(len(spec.balls), int)
         for cc in self._cams:
             acc = cc.background_sum.copy()

@@ -322,3 +322,16 @@ def test_motion_blur_smears_a_fast_ball_along_its_motion():
     assert widths[8][0] - widths[1][0] == pytest.approx(18, abs=3)
     assert abs(widths[8][1] - widths[1][1]) <= 1
     assert spec.targets()[0].name == "bgr_40_200_40"
+
+
+def test_the_first_frame_shows_every_ball_whole_under_motion_blur():
+    """The recording starts at time 0: a ball at rest looks the same in its first frame as in every later one (the first
+    exposure's sub-frames before time 0 drew no ball, and the first frame's balls were a third transparent)."""
+    spec = SceneSpec("s", (BallSpec(Static((0.0, 1.5, 0.0)), colour=(40, 200, 40)),), RigSpec(width=320, height=240), n_frames=3,
+                     noise=0.0, blur=3, exposure=1.0)  # fmt: skip
+    renderer = SceneRenderer(spec)
+    first, later = renderer.render(0)[0][0], renderer.render(2)[0][0]
+    empty = SceneRenderer(dataclasses.replace(spec, balls=())).render(2)[0][0]
+    ball = np.abs(later.astype(int) - empty.astype(int)).sum(axis=2) > 6
+    assert ball.sum() > 100  # the ball is in view
+    assert np.array_equal(first, later)
