@@ -18,6 +18,7 @@ examples:
   stereotrack stress --seeds 5                                   # 5 tune seeds per category
   stereotrack stress --categories hands fast_ball --seeds 3 --jobs 1
   stereotrack stress --set report --seeds 20 --docs docs/evaluation.md
+  stereotrack stress --categories hue_wall --seeds 40 --tracker-seed 1      # how much of each score is luck
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import json
 import os
 import shutil
 import statistics
+import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterable
@@ -60,6 +62,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scale", type=float, default=1.0, metavar="S", help="image size factor, e.g. 0.5 (a quick look, not a report)")
     p.add_argument(
         "--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="J", help="scenes rendered and tracked at once (default 2)"
+    )
+    p.add_argument(
+        "--tracker-seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="the particle tracker's random seed (tracker.seed; default 0, as the report): another shows how much of a "
+        "scene's score is the draw of its particles (scored beside seed 0's, in files named _seedN)",
     )
     p.add_argument("--cache", default="out/stress", metavar="DIR", help="rendered scenes and scores (default out/stress)")
     p.add_argument("--docs", metavar="FILE", help="replace FILE's stress section with the table (report set, whole scenes only)")
@@ -91,10 +101,16 @@ def run(args) -> int:
         raise StereotrackError(f"--scale must be between 0.1 and 2, got {args.scale}")
     if args.docs and (args.seed_set != "report" or args.frames is not None or args.scale != 1.0):
         raise StereotrackError("--docs takes the report set of whole scenes only: add --set report and drop --frames and --scale")
+    if not 0 <= args.tracker_seed < 2**63:
+        raise StereotrackError(f"--tracker-seed must be 0 to 2**63 - 1, got {args.tracker_seed}")
+    if args.docs and args.tracker_seed:
+        raise StereotrackError("--docs takes the tracker's default seed only: drop --tracker-seed")
     if args.docs and not Path(args.docs).is_file():
         raise StereotrackError(f"{args.docs}: no such file (point --docs at docs/evaluation.md)")
     jobs = [
-        Job(c, s, str(args.cache), tuple(args.methods), args.frames, args.scale) for c in cats for s in seeds(args.seed_set, args.seeds)
+        Job(c, s, str(args.cache), tuple(args.methods), args.frames, args.scale, args.tracker_seed)
+        for c in cats
+        for s in seeds(args.seed_set, args.seeds)
     ]
     remove_left_behind(Path(args.cache))
     start = time.perf_counter()
@@ -111,7 +127,7 @@ def run(args) -> int:
     rendered = sum(r["rendered"] for r in results)
     table = markdown_table(summarise(results, args.methods))
     print(table)
-    per_seed = write_results_csv(results, Path(args.cache) / f"{args.seed_set}-results.csv")
+    per_seed = write_results_csv(results, Path(args.cache) / f"{args.seed_set}-results{jobs[0].suffix}.csv")
     info(
         f"{len(jobs)} scenes ({rendered} rendered, the rest cached) in {minutes:.1f} min with {args.jobs} job(s); every seed's figures in {per_seed}"
     )
@@ -152,6 +168,11 @@ class Job:
     methods: tuple[str, ...] = METHODS
     frames: int | None = None  # cut the scene to its first frames (quick looks)
     scale: float = 1.0  # image size factor (quick looks)
+    tracker_seed: int = 0  # the particle tracker's random seed (tracker.seed)
+
+    @property
+    def suffix(self) -> str:
+        return seed_suffix(self.tracker_seed)
 
     @property
     def folder(self) -> Path:
@@ -315,8 +336,9 @@ def _running(pid: int) -> bool:
     return True
 
 
-def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
-    """``stereotrack track --method METHOD`` on a scene (its own code, in this process), scored like ``stereotrack eval``.
+def track_and_score(folder: Path, method: str, n_frames: int, tracker_seed: int = 0) -> dict:
+    """``stereotrack track --method METHOD`` on a scene (its own code, in this process), scored like ``stereotrack eval``;
+    with a ``tracker_seed``, the scene's config with that ``tracker.seed`` (a copy beside the run, not the scene's own).
 
     A run that fails is a result too: its error goes in the table instead of stopping the other scenes.
     """
@@ -327,12 +349,14 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
 
     parser = argparse.ArgumentParser(prog="stereotrack track")
     track.add_arguments(parser)
-    out = folder / f"tracks_{method}.csv"
-    args = parser.parse_args([str(folder), "--method", method, "--out", str(out), "--quiet"])
+    out = folder / f"tracks_{method}{seed_suffix(tracker_seed)}.csv"
     start = time.perf_counter()
     try:
-        with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
-            track.run(args)
+        with tempfile.TemporaryDirectory() as tmp:
+            config = ["--config", _with_tracker_seed(open_recording(folder).targets_path, tracker_seed, Path(tmp))] if tracker_seed else []
+            args = parser.parse_args([str(folder), "--method", method, "--out", str(out), "--quiet", *config])
+            with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+                track.run(args)
     except Exception as exc:  # noqa: BLE001 (a user error or a tracker bug: both are this scene's result)
         return {"error": f"{type(exc).__name__}: {exc}", "seconds": time.perf_counter() - start}
     seconds = time.perf_counter() - start
@@ -340,6 +364,22 @@ def track_and_score(folder: Path, method: str, n_frames: int) -> dict:
         warnings.simplefilter("ignore", UserWarning)
         tracks, (truth, views) = read_tracks(out), read_truth_and_views(open_recording(folder).truth_path)
     return {**evaluate(tracks, truth, frames=list(range(n_frames)), views=views).as_dict(), "seconds": seconds}
+
+
+def seed_suffix(tracker_seed: int) -> str:
+    """What a tracker seed's tracks and scores add to their file names: nothing for the default (what a report uses)."""
+    return f"_seed{tracker_seed}" if tracker_seed else ""
+
+
+def _with_tracker_seed(config: Path, seed: int, folder: Path) -> str:
+    """A copy of the scene's ``config`` in ``folder`` with ``tracker.seed`` set to ``seed``; its path."""
+    import yaml
+
+    data = yaml.safe_load(config.read_text()) or {}
+    data.setdefault("tracker", {})["seed"] = int(seed)
+    copy = folder / config.name
+    copy.write_text(yaml.safe_dump(data, sort_keys=False))
+    return str(copy)
 
 
 def run_job(job: Job) -> dict:
@@ -354,13 +394,13 @@ def run_job(job: Job) -> dict:
 
     key = scene_key(spec) + "-" + code_key()
     for method in job.methods:
-        stamp = folder / f"score_{method}.json"
+        stamp = folder / f"score_{method}{job.suffix}.json"
         if stamp.is_file():
             saved = json.loads(stamp.read_text())
             if saved.get("key") == key:
                 out["methods"][method] = saved["score"]
                 continue
-        score = track_and_score(folder, method, spec.n_frames)
+        score = track_and_score(folder, method, spec.n_frames, job.tracker_seed)
         write_text_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
         out["methods"][method] = score
     return out

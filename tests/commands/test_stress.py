@@ -161,3 +161,35 @@ def test_scenes_pin_no_tracker_setting_so_the_tracker_is_measured_as_configured(
         written = config_to_dict(stress_scene(category, seeds("report", 1)[0]).config())
         assert set(written) <= {"targets", "tracker"}, (category, written)
         assert set(written.get("tracker", {})) <= ({"d_min", "d_max"} if category == "fast_ball" else set()), (category, written)
+
+
+def test_another_tracker_seed_is_scored_beside_the_default_one(tmp_path, capsys, monkeypatch):
+    """`--tracker-seed N` tracks the same scene with tracker.seed N, into files of its own: how much of a score is luck."""
+    from stereotrack.pipeline import assemble
+
+    seeds_used = []
+    make = assemble.make_tracker
+
+    def spy(method, rig, config, **kw):
+        seeds_used.append((method, config.tracker.seed))
+        return make(method, rig, config, **kw)
+
+    monkeypatch.setattr(assemble, "make_tracker", spy)
+    cache = tmp_path / "cache"
+    args = ["stress", "--categories", "hands", "--seeds", "1", "--frames", "6", "--scale", "0.25", "--jobs", "1", "--cache", str(cache)]
+    assert cli_main([*args, "--quiet"]) == 0
+    assert cli_main([*args, "--quiet", "--tracker-seed", "7"]) == 0
+    err = capsys.readouterr().err
+    assert "(0 rendered" in err  # the second run tracks the scene the first rendered
+    assert seeds_used == [("particles", 0), ("baseline", 0), ("particles", 7), ("baseline", 7)]
+    folder = Job("hands", 0, str(cache), frames=6, scale=0.25).folder
+    names = {p.name for p in folder.iterdir()}
+    assert {"score_particles.json", "score_particles_seed7.json", "tracks_particles.csv", "tracks_particles_seed7.csv"} <= names
+    assert (cache / "tune-results.csv").is_file() and (cache / "tune-results_seed7.csv").is_file()
+    assert "seed" not in (folder / "config.yaml").read_text()  # the scene's own config is as it was rendered
+    doc = tmp_path / "evaluation.md"
+    doc.write_text("# Evaluation\n")
+    assert cli_main(["stress", "--set", "report", "--seeds", "1", "--tracker-seed", "1", "--docs", str(doc)]) == 2
+    assert cli_main(["stress", "--tracker-seed", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert "drop --tracker-seed" in err and "--tracker-seed must be" in err and doc.read_text() == "# Evaluation\n"
