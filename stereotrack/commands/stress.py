@@ -127,7 +127,7 @@ def run(args) -> int:
     rendered = sum(r["rendered"] for r in results)
     table = markdown_table(summarise(results, args.methods))
     print(table)
-    per_seed = write_results_csv(results, Path(args.cache) / f"{args.seed_set}-results{jobs[0].suffix}.csv")
+    per_seed = write_results_csv(results, Path(args.cache) / f"{args.seed_set}-results{seed_suffix(args.tracker_seed)}.csv")
     info(
         f"{len(jobs)} scenes ({rendered} rendered, the rest cached) in {minutes:.1f} min with {args.jobs} job(s); every seed's figures in {per_seed}"
     )
