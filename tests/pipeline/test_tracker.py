@@ -55,6 +55,14 @@ def test_static_balls_at_06_12_20_m_within_a_centimetre():
         assert e.mean() < 0.01, f"ball at {depths[oid]:.1f} m: mean error {1000 * e.mean():.1f} mm"
 
 
+def test_without_motion_static_balls_are_tracked_and_the_surface_test_is_left_out():
+    """tracker.motion: false with the surface test on (its default): there is no background, so nothing is judged
+    still and nothing a patch of a surface (it stopped the run with a TypeError on the first frame)."""
+    tracks, truth, _ = run_scene("static_depths", 12, tracker_overrides={"motion": False})
+    errors = per_object_errors(tracks, truth, start=6)
+    assert all(np.isfinite(e).all() and e.mean() < 0.01 for e in errors.values()), errors
+
+
 def test_hd_images_build_evidence_at_half_size_and_keep_centimetre_accuracy():
     """At 1280x720 a ball spans many pixels: the evidence is built on a half-size grid (evidence_scale 0 =
     automatic) with the camera on that grid, and static balls are still found within a centimetre."""
