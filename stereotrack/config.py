@@ -265,7 +265,10 @@ def _section(path, name: str, cls, data: Any):
                 if not isinstance(value, bool):
                     raise TypeError
             elif isinstance(default, int):
-                if isinstance(value, bool) or not math.isfinite(float(value)) or float(value) != int(value):
+                if isinstance(value, bool):
+                    raise TypeError
+                # an int is whole as it is (through a float, the top seed 2**63 - 1 rounded to 2**63 and was refused)
+                if not isinstance(value, int) and (not math.isfinite(float(value)) or float(value) != int(value)):
                     raise TypeError
                 value = int(value)
             elif isinstance(default, float):

@@ -220,7 +220,8 @@ def ball_like(blobs: Blobs, focal_px: float, radius: float, d_min: float, d_max:
     if blobs.axes is None or not len(blobs):
         return np.ones(len(blobs), bool)
     semi_minor = np.maximum(blobs.axes[:, 1], 0.5)
-    near, far = focal_px * radius / d_min, focal_px * radius / d_max  # apparent radii at d_min and at d_max
+    # apparent radii at d_min and at d_max; d_min 0 (from the camera on) allows any size up close
+    near, far = (focal_px * radius / d_min if d_min > 0 else np.inf), focal_px * radius / d_max
     sized = (semi_minor <= near * DEPTH_SLACK) & (semi_minor >= far / DEPTH_SLACK)
     fill = blobs.areas / np.maximum(np.pi * np.maximum(blobs.axes[:, 0], 0.5) * semi_minor, 1.0)
     return sized & (fill >= FILL)

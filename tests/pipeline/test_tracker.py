@@ -333,3 +333,55 @@ def test_a_white_targets_tentative_tracks_keep_their_discs_out_of_the_background
     assert len(seen) == len(rig.cameras)
     for balls in seen:
         assert balls.targets == ("white",) and not balls.settled.any() and not balls.confirmed.any()
+
+
+def _setting_cases():
+    """Every tracker and tracks setting away from its default: each switch flipped, each other choice, each number at
+    both ends of its range (particles at most 20,000 and threads at most 4: the ends themselves take minutes)."""
+    import dataclasses
+
+    from stereotrack.config import SECTIONS
+
+    cases = []
+    for section in ("tracker", "tracks"):
+        for f in dataclasses.fields(SECTIONS[section]):
+            meta = f.metadata
+            if isinstance(f.default, bool):
+                cases.append((section, f.name, not f.default))
+            elif meta.get("choices"):
+                cases += [(section, f.name, c) for c in meta["choices"] if c != f.default]
+            elif isinstance(f.default, (int, float)) and meta.get("low") is not None:
+                top = {"particles": 20_000, "threads": 4}.get(f.name, meta["high"])
+                cases += [(section, f.name, type(f.default)(v)) for v in (meta["low"], top)]
+    return cases
+
+
+@pytest.fixture(scope="module")
+def two_target_frames():
+    """Four frames of pendulum4 at 320x240, tracked with its orange target and a white one (the white target's own
+    stages run too: its shading map, backgrounds started from frames, ghost checks)."""
+    spec = make_preset("pendulum4", n_frames=4, width=320, height=240)
+    renderer = SceneRenderer(spec)
+    data = config_to_dict(spec.config())
+    data["targets"].append({"name": "white", "hsv_min": [0, 0, 170], "hsv_max": [179, 50, 255], "radius": 0.03})
+    frames = [FramePair(i, tuple(renderer.render(i)[0]), tuple(renderer.time(i) for _ in range(2))) for i in range(4)]
+    return renderer.rig, data, frames
+
+
+@pytest.mark.parametrize("section, name, value", _setting_cases())
+def test_every_setting_at_its_ends_and_choices_tracks_or_is_refused_in_one_line(section, name, value, two_target_frames):
+    """A user may write any value a setting's range or choices allow: the tracker runs with it, or the config is
+    refused with a StereotrackError (one line, exit 2). tracker.motion: false once stopped the run with a TypeError on
+    its first frame, tracker.d_min: 0 with a ZeroDivisionError, and the top tracker.seed (2**63 - 1) was refused as
+    'expected a int'."""
+    rig, data, frames = two_target_frames
+    try:
+        config = config_from_dict({**data, section: {name: value}})
+    except StereotrackError as exc:
+        assert "\n" not in str(exc)
+        assert (section, name) == ("tracker", "d_min") and value > 5 or (section, name) == ("tracker", "d_max") and value < 0.2, exc
+        return
+    tracker = Tracker(rig, config)
+    for pair in frames:
+        result = tracker.step(pair)
+    assert all(np.isfinite(t.position).all() for t in result.tracks)
