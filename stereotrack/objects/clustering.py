@@ -22,6 +22,7 @@ ISODATA rules, all driven by the ball radius R:
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -73,6 +74,7 @@ def _empty(n: int) -> Clusters:
 
 
 def _sklearn_em(X, w, means, covs, iterations, reg, rng):
+    from sklearn.exceptions import ConvergenceWarning
     from sklearn.mixture import GaussianMixture
 
     idx = systematic_indices(w / w.sum(), min(len(X), 600), rng)
@@ -87,7 +89,9 @@ def _sklearn_em(X, w, means, covs, iterations, reg, rng):
         random_state=int(rng.integers(2**31)),
         tol=1e-4,
     )
-    gm.fit(Xs)
+    with warnings.catch_warnings():  # a few iterations a frame, as the numpy EM's: stopping short is the design, not news
+        warnings.simplefilter("ignore", ConvergenceWarning)  # for the user (two lines on the terminal, frame after frame)
+        gm.fit(Xs)
     resp = gm.predict_proba(X)
     return gm.means_, gm.covariances_, gm.weights_, resp
 

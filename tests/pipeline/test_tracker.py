@@ -4,6 +4,8 @@ Thresholds are the figures the tracker reaches on these scenes (see the
 closing notes and BENCHMARKS.md); timings live in the benchmark, not here.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -382,6 +384,9 @@ def test_every_setting_at_its_ends_and_choices_tracks_or_is_refused_in_one_line(
         assert (section, name) == ("tracker", "d_min") and value > 5 or (section, name) == ("tracker", "d_max") and value < 0.2, exc
         return
     tracker = Tracker(rig, config)
-    for pair in frames:
-        result = tracker.step(pair)
+    with warnings.catch_warnings(record=True) as caught:  # nor does it print warnings frame after frame
+        warnings.simplefilter("always")
+        for pair in frames:
+            result = tracker.step(pair)
     assert all(np.isfinite(t.position).all() for t in result.tracks)
+    assert not caught, [str(w.message) for w in caught]
