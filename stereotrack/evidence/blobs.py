@@ -163,11 +163,17 @@ def streaks(areas: np.ndarray, axes: np.ndarray, elongation: float = STREAK_ELON
     return (axes[:, 0] >= elongation * b) & (areas >= STREAK_FILL * np.pi * axes[:, 0] * b)
 
 
-SHORT_STREAK_ELONGATION = 1.3  # a moving blob this much longer than wide (and as full and even as a streak) is a short blur
+# A moving blob this much longer than wide (and as full and even as a streak) is a short blur. At 1.3 a far fast ball
+# blurred to 1.2-1.25 times its width (fast_ball tune seed 28: a ball of 3.7 pixels at 16 m, its blob's box 35 % wider
+# than the ball) was neither a clean disc nor a blur, and its object kept the particles' word, 0.3-0.5 m near for 24
+# frames. At 1.15, tune seeds 0-39: fast_ball 28 0.093 -> 0.574, 26 0.782 -> 0.836 (with tracker seed 0 and 1 alike),
+# sum of MOTA +0.44; hue_wall, static_props, hands within their tracker-seed luck (+0.52, -0.04, +0.02); white_ball
+# takes no short blurs; the presets as before.
+SHORT_STREAK_ELONGATION = 1.15
 
 
 def short_streaks(b: Blobs, mask: np.ndarray) -> np.ndarray:
-    """Per blob of ``mask`` (``b``, from find_blobs): a ball blurred along its path to 1.3-2 times its width (a big
+    """Per blob of ``mask`` (``b``, from find_blobs): a ball blurred along its path to 1.15-2 times its width (a big
     ball's short blur; ``streaks`` asks for 2): as full as a streak, away from the image's edge and as wide all along.
     Its width is still the ball's (its length is not: the particles judge its larger side and start 10-15 % too near:
     fast_ball tune seed 5). The caller (objects/explain.py) counts only blobs that are also mostly moving: a half-lit
