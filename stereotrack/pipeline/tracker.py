@@ -66,7 +66,8 @@ class Tracker:
         self.prev_means: dict[str, np.ndarray] = {t.name: np.zeros((0, 3)) for t in config.targets}
         self.radius = {t.name: t.radius for t in config.targets}
         self.identities = TrackManager(config.tracks, rig, self.radius)
-        self.surfaces = {t.name: SurfacePatches(t.radius, rig.cameras) for t in config.targets} if config.tracker.surfaces else {}
+        # The surface test judges still objects, and without motion (no backgrounds) nothing is still: no test then
+        self.surfaces = {t.name: SurfacePatches(t.radius, rig.cameras) for t in config.targets} if s.surfaces and s.motion else {}
         # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
         # reads that grid's image too (and keeps half its size, motion.py).
         smallest = min(t.radius for t in config.targets)
@@ -180,9 +181,8 @@ class Tracker:
             ]
             occluders = balls.others(t.name) if s.occlusion else None
             kept_objects, into = explain(candidates, views[t.name], self.explain_settings[t.name], balls.of(t.name), occluders)
-            # Nothing is still in a background's first frame (it is the background): nothing is judged there; without
-            # motion (no backgrounds) nothing is still, and nothing is judged at all
-            if t.name in self.surfaces and self.backgrounds and all(bg.compared for bg in self.backgrounds):
+            # Nothing is still in a background's first frame (it is the background): nothing is judged there
+            if t.name in self.surfaces and all(bg.compared for bg in self.backgrounds):
                 kept_objects, into = self._off_surfaces(kept_objects, into, views[t.name], pair.images, balls.of(t.name), now)
             remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
             objects.extend(kept_objects)

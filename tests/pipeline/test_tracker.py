@@ -366,7 +366,10 @@ def two_target_frames():
     renderer = SceneRenderer(spec)
     data = config_to_dict(spec.config())
     data["targets"].append({"name": "white", "hsv_min": [0, 0, 170], "hsv_max": [179, 50, 255], "radius": 0.03})
-    frames = [FramePair(i, tuple(renderer.render(i)[0]), tuple(renderer.time(i) for _ in range(2))) for i in range(4)]
+    frames = []
+    for i in range(4):
+        images = renderer.render(i)[0]
+        frames.append(FramePair(i, tuple(images), tuple(renderer.time(i) for _ in images)))
     return renderer.rig, data, frames
 
 
