@@ -123,6 +123,13 @@ class TrackerSettings:
     crossing_share: float = setting(
         0.25, "share of the abductive particles placed where blob rays of two cameras cross (the rest along the rays)", low=0.0, high=1.0
     )
+    track_floor: float = setting(
+        0.5,
+        "share of the resampled particles kept for the confirmed tracks' balls, split evenly: a ball whose likelihood falls"
+        " (held in a hand, half hidden) keeps particles while another takes the weight (0: by weight alone, the paper's)",
+        low=0.0,
+        high=1.0,
+    )
     cluster_min_likelihood: float = setting(0.05, "particles below this likelihood are not clustered", low=0.0, high=1.0)
     cluster_min_mass: float = setting(0.01, "clusters with less weight are dropped", low=0.0, high=1.0)
     cluster_min_particles: int = setting(8, "clusters with fewer particles are dropped", low=1, high=1_000_000)
