@@ -125,7 +125,7 @@ class TrackerSettings:
     )
     track_floor: float = setting(
         0.5,
-        "share of the resampled particles kept for the confirmed tracks' balls, split evenly: a ball whose likelihood falls"
+        "share of the resampled particles kept for a coloured target's confirmed tracks' balls, split evenly: a ball whose likelihood falls"
         " (held in a hand, half hidden) keeps particles while another takes the weight (0: by weight alone, the paper's)",
         low=0.0,
         high=1.0,
