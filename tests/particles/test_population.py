@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from scene_helpers import RADIUS, TARGET, balls_at, default_rig, disc_masks, evidence
 
-from stereotrack.config import TrackerSettings
+from stereotrack.config import Target, TrackerSettings
 from stereotrack.particles.population import Population, split_counts
+from stereotrack.results import TrackEstimate
 
 BALLS = np.array([[-0.2, 1.3, 0.0], [0.25, 1.9, 0.1]])
 
@@ -121,11 +122,9 @@ def test_exclusion_kills_particles_of_one_track_inside_another_ball():
 
 
 def _weak_ball_share(track_floor: float, frames: int = 20) -> float:
-    """Ball 0 drawn whole, ball 1 drawn every third row only (a ball half hidden in a hand: its likelihood a fraction of
+    """Ball 0 drawn whole, ball 1 with every third row left out (a ball partly hidden in a hand: its likelihood a fifth of
     ball 0's), each followed by a confirmed track; the particles start half on each. No abductive particles: what
     stays on ball 1 is what resampling keeps. The share of particles on ball 1 after ``frames`` steps."""
-    from stereotrack.results import TrackEstimate
-
     rig = default_rig()
     whole, _ = disc_masks(rig, BALLS[:1])
     faint, _ = disc_masks(rig, BALLS[1:])
@@ -152,3 +151,7 @@ def test_a_tracked_ball_whose_likelihood_falls_keeps_its_share_of_particles():
     """The track floor (mixture particle filter): without it, resampling by weight drains the weak ball in a few frames."""
     assert _weak_ball_share(0.0) < 0.02
     assert _weak_ball_share(0.5) > 0.1  # of 0.25 kept for it (0.5 over two tracks), some walked out of its disc
+    # Not for a white ball: along its ray a white wall scores as well as the ball (population.py)
+    white = Target("white", (0, 0, 180), (179, 40, 255), RADIUS)
+    assert white.any_hue
+    assert Population(default_rig().cameras, TrackerSettings(), white, np.random.default_rng(0)).track_floor == 0.0
