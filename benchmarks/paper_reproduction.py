@@ -164,6 +164,7 @@ def run_tracker(
     override other tracker settings (e.g. ``depth_from_size=False``).
     """
     base = scene.config
+    settings = {"track_floor": 0.0, **settings}  # the paper resamples by weight alone: Table II's collapse is its doing
     first_alpha = WARMUP_ALPHA if warmup else alpha
     config = replace(base, tracker=replace(base.tracker, particles=particles, alpha=first_alpha, refine=refine, seed=seed, **settings))
     tracker = Tracker(scene.rig, config)
