@@ -48,6 +48,7 @@ class PopulationState:
     likelihoods: np.ndarray  # N, eq. 14 values (1 = full windows in every camera)
     abductive: np.ndarray  # N bool
     owners: np.ndarray | None = None  # N track id a particle follows (-1: none), set after tracking
+    anchors: np.ndarray | None = None  # sorted ids of the confirmed (or coasting) tracks among them, set with ``owners``
 
 
 def split_counts(n: int, alpha: float) -> tuple[int, int]:
@@ -80,7 +81,6 @@ class Population:
         self.motion = motion or RandomWalk(settings.motion_sigma)
         self.proposal = proposal or RayProposal(settings, target.radius, target.any_hue)
         self.state: PopulationState | None = None
-        self._anchors = np.zeros(0, np.int64)  # the confirmed (or coasting) tracks of this target, as ``follow`` last saw them
         # Not for a white or grey ball: along its ray a white wall scores as well as the ball, and a kept share kept
         # wrong-depth modes too (white_ball tune seeds 0-39: MOTA summed -0.03 and -0.32 over tracker seeds 0 and 1)
         self.track_floor = 0.0 if target.any_hue else settings.track_floor
@@ -136,11 +136,11 @@ class Population:
         keeps its own (Vermaak et al. 2003), its cluster stays. Only a track with a cluster's worth of particles in
         likelihood is lifted: a ball that has gone leaves nothing to keep."""
         st, s = self.state, self.settings
-        if not self.track_floor or st.owners is None or not len(self._anchors):
+        if not self.track_floor or st.anchors is None or not len(st.anchors):
             return st.weights
-        anchored = np.isin(st.owners, self._anchors)  # the particles following a confirmed track ...
-        group = np.searchsorted(self._anchors, st.owners[anchored])  # ... and which
-        K = len(self._anchors)
+        anchored = np.isin(st.owners, st.anchors)  # the particles following a confirmed track ...
+        group = np.searchsorted(st.anchors, st.owners[anchored])  # ... and which
+        K = len(st.anchors)
         mass = np.bincount(group, st.weights[anchored], K)
         alive = np.bincount(group, st.likelihoods[anchored] >= s.cluster_min_likelihood, K) >= s.cluster_min_particles
         lift = np.where(alive & (mass > 0), np.maximum(mass, self.track_floor / K) / np.maximum(mass, 1e-300), 1.0)
@@ -160,6 +160,6 @@ class Population:
         owners = np.array([tr.track_id for tr in mine] + [-1])[nearest]
         speeds = [tr.velocity for tr in mine] if self.settings.particle_velocity else [np.zeros(3)] * len(mine)
         velocities = np.array(speeds + [np.zeros(3)]).reshape(-1, 3)[nearest]
-        self._anchors = np.unique(np.array([tr.track_id for tr in mine if tr.state != "tentative"], np.int64))
+        anchors = np.unique(np.array([tr.track_id for tr in mine if tr.state != "tentative"], np.int64))
         st = self.state
-        self.state = PopulationState(st.positions, velocities, st.weights, st.likelihoods, st.abductive, owners)
+        self.state = PopulationState(st.positions, velocities, st.weights, st.likelihoods, st.abductive, owners, anchors)
