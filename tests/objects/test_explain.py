@@ -316,3 +316,18 @@ def test_a_far_balls_blur_of_a_fifth_of_its_width_is_a_short_blur():
     off = ball - 0.06 * np.linalg.norm(ball) * ray
     kept, _ = explain([obj(off, ray, 0.19)], views, ExplainSettings(radius=RADIUS))
     assert len(kept) == 1 and kept[0].swept and np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
+
+
+def test_a_small_blur_is_one_wherever_it_falls_on_the_blob_finders_grid():
+    """The blob finder labels a subsampled mask and counts a blob's pixels in its box grown by one cell. A small blur
+    moving all over must read as moving wherever its rows fall on that grid: counted in the bare box, a blur starting
+    on an odd row read 0.65 of its pixels moving, was no short blur, and kept its particles' word 0.4 m off along the
+    ray (fast_ball tune seed 29, 0.079 -> 0.936 with the grown box)."""
+    for height in (0.0, 0.008):  # the same blur, one pixel lower: its top row on the grid, then off it
+        ball = np.array([0.05, 10.0, height])
+        rig, masks, views = _blurred(ball, np.array([0.02, 0.0, 0.0]))
+        ray = ball / np.linalg.norm(ball)
+        off = ball + 0.4 * ray
+        kept, _ = explain([obj(off, ray, 0.06)], views, ExplainSettings(radius=RADIUS))
+        assert len(kept) == 1 and kept[0].swept, height
+        assert np.linalg.norm(kept[0].position - ball) < 0.1, (height, kept[0].position)
