@@ -90,6 +90,10 @@ class Population:
         every target, for exclusion (seed 000's blocking), occlusion by other colours, and the crossings they hold."""
         s = self.settings
         n_seq, n_abd = split_counts(s.particles, s.alpha)
+        if self.state is None and n_abd:
+            # The first frame has no past to propagate: every particle is born from the evidence (a frustum's worth of
+            # blind guesses left a ball a few abductive particles and its cluster a frame or two late).
+            n_seq, n_abd = 0, s.particles
         rng = self.rng
         if n_seq:
             if self.state is None:
