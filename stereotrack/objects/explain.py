@@ -296,8 +296,9 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
             ks = np.flatnonzero(swept)
             if len(ks):  # every candidate's box at once (a hue wall's stripes are dozens a frame)
                 # Over the pixels its area was counted in: its box of label cells grown by one cell (blob_kernels.mask_moments;
-                # the labels are of a subsampled copy). In the bare box a small streak's share read 0.64-0.77 where
-                # every pixel of it moved, and it was no streak (fast_ball tune seed 29: placed by its particles, 0.4 m far).
+                # the labels are of a subsampled copy). In the bare box a small streak whose rows fell off that grid read
+                # 0.64-0.77 moving (a drawn blur moving all over: 0.65), was no streak, and its object kept its particles'
+                # depth (fast_ball tune seed 29: 0.3-0.4 m far for 27 frames).
                 s = b.label_scale
                 moving = box_counts(v.moving_integral, *(b.boxes[ks] * s + np.array([-s, -s, s, s])).T)
                 swept[ks] = (moving >= 0.8 * b.areas[ks]) & np.array([k not in shared[j] for k in ks.tolist()], bool)
