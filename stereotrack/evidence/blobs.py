@@ -38,6 +38,13 @@ class Blobs:
         this only for blobs no tracked ball holds."""
         return self.widths if self.widths is not None else self.radii
 
+    def pixel_boxes(self, ids: np.ndarray) -> np.ndarray:
+        """Per blob ``ids`` (components only): the box (x0, y0, x1, y1, end exclusive, pixels, not clipped to the image)
+        its ``areas`` and moments were measured in: its box of label cells grown by one cell, as the labels are of a
+        subsampled copy and its pixels reach up to a cell past them (blob_kernels.mask_moments)."""
+        s = self.label_scale
+        return self.boxes[ids] * s + np.array([-s, -s, s, s])
+
     def __len__(self) -> int:
         return len(self.centres)
 
@@ -197,10 +204,9 @@ def minor_skew(b: Blobs, mask: np.ndarray, ids: np.ndarray) -> np.ndarray:
     if b.boxes is None or b.major is None:
         return out
     h, w = mask.shape
-    s = b.label_scale
-    for n, k in enumerate(np.asarray(ids, int)):
-        x0, y0 = max(int(b.boxes[k, 0]) * s - s, 0), max(int(b.boxes[k, 1]) * s - s, 0)
-        x1, y1 = min(int(b.boxes[k, 2]) * s + s, w), min(int(b.boxes[k, 3]) * s + s, h)
+    ids = np.asarray(ids, int)
+    for n, (k, (x0, y0, x1, y1)) in enumerate(zip(ids.tolist(), b.pixel_boxes(ids).tolist())):
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
         ys, xs = np.nonzero(mask[y0:y1, x0:x1])
         if len(xs) < 3:
             continue

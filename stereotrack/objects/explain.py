@@ -295,12 +295,10 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
                 swept |= short_streaks(b, v.counted if v.counted is not None else v.mask)
             ks = np.flatnonzero(swept)
             if len(ks):  # every candidate's box at once (a hue wall's stripes are dozens a frame)
-                # Over the pixels its area was counted in: its box of label cells grown by one cell (blob_kernels.mask_moments;
-                # the labels are of a subsampled copy). In the bare box a small streak whose rows fell off that grid read
-                # 0.64-0.77 moving (a drawn blur moving all over: 0.65), was no streak, and its object kept its particles'
-                # depth (fast_ball tune seed 29: 0.3-0.4 m far for 27 frames).
-                s = b.label_scale
-                moving = box_counts(v.moving_integral, *(b.boxes[ks] * s + np.array([-s, -s, s, s])).T)
+                # Over the pixels its area was counted in (Blobs.pixel_boxes). In its bare box of label cells a small
+                # streak whose rows fell off that grid read 0.64-0.77 moving (a drawn blur moving all over: 0.65), was no
+                # streak, and its object kept its particles' depth (fast_ball tune seed 29: 0.3-0.4 m far for 27 frames).
+                moving = box_counts(v.moving_integral, *b.pixel_boxes(ks).T)
                 swept[ks] = (moving >= 0.8 * b.areas[ks]) & np.array([k not in shared[j] for k in ks.tolist()], bool)
         out.append(swept)
     return out
