@@ -80,8 +80,14 @@ SHADING_ASPECT = 1.5  # a patch of the map counts when its box is at most this e
 SHADING_FILL = 0.6  # ... and it fills this share of the ellipse in its box
 SHADING_MIN_RADIUS = 2.5  # pixels of the background's grid: a smaller patch is a speck of texture, a switch or a knob far off
 SHADING_EDGED = 0.7  # share of a patch that must show gradient itself (the rest: filled holes)
+# ... and of a disc cut out of a patch joined to something (_inner_discs): a ball's shading fills its disc (white_ball
+# tune seeds 31, 49, 74: 0.97-1.00), where a disc inside a small box or a thing's filled outline shows less (seed 70: 0.86, 0.88)
+SHADING_EDGED_DRAWN = 0.95
 SHADING_SQUARE = 0.9  # a patch filling more of its box is square
 SHADING_BUSY = 0.25  # at most this share of the ring around a patch shows gradient
+# ... and around a disc cut out of a patch joined to something: what it is joined to lies in its ring (a ball against a
+# picture's frame, white_ball tune seed 49: 0.26-0.30), and its shading is asked more of (SHADING_EDGED_DRAWN)
+SHADING_BUSY_DRAWN = 0.4
 SHADING_CONTRAST = (
     40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
 )
@@ -106,7 +112,9 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     the patches round like a ball and as wide as one between ``far_px`` and ``near_px`` radii (the ball's apparent
     radius on this grid at the farthest and nearest depths). A wall's edges, a shelf's books and a floor's texture are
     lines, networks and specks; a flat wall is empty. The room's straight edges are taken off first (a ball at rest
-    against one would join it), and a patch must hold gradient pointing every way, as a ball's rim does. uint8 0/1."""
+    against one would join it), and a patch must hold gradient pointing every way, as a ball's rim does. A patch too
+    wide or not round may be a ball joined to something (a leg, a bin, another ball): the largest discs inside it are
+    tested again on their own. uint8 0/1."""
     grey = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (3, 3), 0).astype(np.float32)
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
@@ -125,25 +133,82 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     fill[0] = False
     if fill.any():
         out[fill[labels]] = 1
+    balls, joined = _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px)
+    # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
+    # would put the ball nearer than it is.
+    balls = cv2.erode(balls, _CROSS)
+    # A ball at rest touching something of the map that is not straight (a table's leg, a bin, another ball) joins it
+    # in a patch too wide or not round. The largest discs inside such patches (their distance transform's peaks), a
+    # pixel inside them (that spread), are looked at again as patches of their own: a ball's is its own disc, an
+    # edge's a few pixels wide.
+    if joined.any():
+        balls |= _ball_patches(_inner_discs(joined, far_px, near_px), shaded, edges, grey, direction, straight, near_px, far_px, True)[0]
+    return balls
+
+
+def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> np.ndarray:
+    """The largest discs inside ``patches`` (uint8 0/1) centred where its distance transform peaks with a radius a
+    ball's between ``far_px`` and ``near_px`` could have (shading's bounds), each a pixel narrower than it fits (a
+    ball's patch is its disc and its rim's spread), and parted from the others it meets. uint8 0/1."""
+    out = np.zeros_like(patches)
+    if not patches.any():
+        return out
+    inside = cv2.distanceTransform(patches, cv2.DIST_L2, 3)
+    low = max(far_px / 1.3, SHADING_MIN_RADIUS)
+    peak = (inside >= cv2.dilate(inside, None)) & (inside >= low) & (inside <= 1.3 * near_px)
+    n, labels, _, centres = cv2.connectedComponentsWithStats(peak.astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return out
+    radii = np.zeros(n, np.float32)
+    np.maximum.at(radii, labels[peak], inside[peak])
+    chosen: list[tuple[float, float, float]] = []
+    drawn = np.zeros(patches.shape, np.float32)  # each disc's number (1, 2 ...), the larger drawn over the smaller
+    for k in np.argsort(-radii[1:]) + 1:  # the largest first; a peak inside a disc chosen is a lump of that disc
+        (u, v), r = centres[k], float(radii[k])
+        if all(np.hypot(u - cu, v - cv) > cr for cu, cv, cr in chosen):
+            chosen.append((u, v, r))
+    for number, (u, v, r) in reversed(list(enumerate(chosen, 1))):
+        cv2.circle(drawn, (int(round(u)), int(round(v))), max(int(round(r)) - 1, 1), float(number), -1)
+    # Two balls' discs overlap where their patch's rims spread into each other: the pixels where two discs meet are
+    # left out, so that each disc is a patch of its own.
+    apart = np.where(drawn > 0, drawn, np.float32(len(chosen) + 1))
+    meets = (cv2.dilate(drawn, None) != drawn) | (cv2.erode(apart, None) != apart)
+    out[(drawn > 0) & ~meets] = 1
+    return out
+
+
+def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px, drawn: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The patches of a shading map (``out``, uint8 0/1, holes filled) that could be a ball (motion.shading's tests):
+    round, as wide as a ball between ``far_px`` and ``near_px``, showing gradient themselves (``shaded``, before the
+    holes were filled), alone on something flat (``edges`` around them), with a lit side and a limb (``grey``), a rim
+    pointing every way (``direction``), and a disc on their own where cut off a ``straight`` edge. ``drawn``: the
+    patches are discs drawn a pixel inside a patch (_inner_discs): discs already, and their ring starts beyond that
+    pixel and the rim's spread. The patches kept, and those too wide or not round (perhaps a ball joined to
+    something), uint8 0/1 each."""
+    h, w = out.shape
     n, labels, stats, _ = cv2.connectedComponentsWithStats(out, connectivity=8)
     x, y, bw, bh, area = stats.T
     wide, narrow = np.maximum(bw, bh) / 2.0, np.minimum(bw, bh) / 2.0
     round_ = (wide <= SHADING_ASPECT * narrow) & (area >= SHADING_FILL * np.pi * wide * narrow)
     keep = round_ & (narrow <= near_px * 1.3) & (wide >= max(far_px / 1.3, SHADING_MIN_RADIUS))
     keep[0] = False
+    joined = ~round_ | (narrow > near_px * 1.3)
+    joined[0] = False
+    joined = joined.astype(np.uint8)[labels]
     keep &= area <= SHADING_SQUARE * bw * bh  # a disc fills pi / 4 of its box, a switch or a socket all of it
     if not keep.any():
-        return np.zeros_like(out)
+        return np.zeros_like(out), joined
     candidates = keep[labels]  # the pixels of the patches still in question (a few balls' worth)
     mine = labels[candidates]
     # a flat disc (a door's knob, painted) shows its edge only: its filled hole is most of it
-    keep &= np.bincount(mine, weights=shaded[candidates], minlength=n) >= SHADING_EDGED * area
+    keep &= np.bincount(mine, weights=shaded[candidates], minlength=n) >= (SHADING_EDGED_DRAWN if drawn else SHADING_EDGED) * area
     if keep.any():  # alone on something flat (a shelf's books, a poster's shapes are among other edges) ...
         g = np.ceil(wide).astype(int)  # the ring around a patch's box, its half-width wide
-        box = (x, y, x + bw, y + bh)
+        m = 2 if drawn else 0
+        box = (np.maximum(x - m, 0), np.maximum(y - m, 0), np.minimum(x + bw + m, w), np.minimum(y + bh + m, h))
         grown = (np.maximum(x - g, 0), np.maximum(y - g, 0), np.minimum(x + bw + g, w), np.minimum(y + bh + g, h))
-        ring = np.maximum((grown[2] - grown[0]) * (grown[3] - grown[1]) - bw * bh, 1)
-        keep &= _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= SHADING_BUSY * ring
+        ring = np.maximum((grown[2] - grown[0]) * (grown[3] - grown[1]) - (box[2] - box[0]) * (box[3] - box[1]), 1)
+        keep &= _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= (SHADING_BUSY_DRAWN if drawn else SHADING_BUSY) * ring
     if keep.any():  # a sphere's lit side and its limb differ: a flat decal (a switch, a socket) is one grey
         top, bottom = np.zeros(n, np.float32), np.full(n, 255, np.float32)
         np.maximum.at(top, mine, grey[candidates])
@@ -156,7 +221,7 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
         ways[mine[rim], way[rim]] = True
         keep &= ways.all(axis=1)
     cut = np.bincount(labels[cv2.dilate(straight.astype(np.uint8), None) > 0], minlength=n) > 0
-    if (keep & cut).any():  # a patch cut off a straight edge may be any piece of what the edge bounded (a table's
+    if not drawn and (keep & cut).any():  # a patch cut off a straight edge may be any piece of what the edge bounded (a table's
         # corner, a picture's inside): it must be a disc on its own, filling the ellipse in its box and little beyond
         yy, xx = np.nonzero(candidates)
         cx, cy, a, b = x + (bw - 1) / 2.0, y + (bh - 1) / 2.0, bw / 2.0, bh / 2.0
@@ -164,9 +229,7 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
         within = np.bincount(mine[inside], minlength=n)
         disc = (within >= SHADING_DISC * np.pi * a * b) & (area - within <= (1 - SHADING_DISC) * area)
         keep &= ~cut | disc
-    # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
-    # would put the ball nearer than it is.
-    return cv2.erode(keep.astype(np.uint8)[labels], _CROSS)
+    return keep.astype(np.uint8)[labels], joined
 
 
 def _straight(edges: np.ndarray, direction: np.ndarray, length: float) -> np.ndarray:
