@@ -240,7 +240,9 @@ class Tracker:
                 (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
                 colour[t.name][0],
                 cm.hsv,
-                self.backgrounds[j].behind if self.backgrounds and self.colour_models else None,  # read with a colour table only
+                # read with a colour table only; not for a white or grey ball, whose colour is the room's: what a pixel
+                # replaced is as likely the ball's, and a ball at rest (its shading) is in the background
+                self.backgrounds[j].behind if self.backgrounds and self.colour_models and not t.any_hue else None,
                 *self.moving_ranges[t.name],
                 self._faint(t, j, small_halved),
                 colour[t.name][1],
