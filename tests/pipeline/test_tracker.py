@@ -266,7 +266,7 @@ def test_only_a_white_targets_backgrounds_start_from_frames_spread_over_a_record
 
 @pytest.mark.parametrize("shading", [True, False])
 def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, monkeypatch):
-    """tracker.shading: a white or grey target's shading map (motion.shading, about 2 ms a camera at 640x480) is built
+    """tracker.shading: a white or grey target's shading map (motion.shading, 3-6 ms a camera at 640x480) is built
     on every camera's frame when on, and never when off; a coloured target never builds one."""
     from scene_helpers import default_rig
 
