@@ -171,6 +171,24 @@ def _white_room(cam, rng, balls=()):
     return img
 
 
+def _lit_spheres(img, balls, radius=14.0):
+    """Draws into ``img`` a sphere lit from above at each (x, y) of ``balls``: 150 on its dark side, 245 where it faces the light."""
+    yy, xx = np.mgrid[: img.shape[0], : img.shape[1]]
+    for x, y in balls:
+        nz2 = 1 - ((xx - x) ** 2 + (yy - y) ** 2) / radius**2
+        lit = np.clip((np.sqrt(np.clip(nz2, 0, 1)) * 0.5 - (yy - y) / radius * 0.85), 0, 1)
+        img[nz2 >= 0] = (150 + 95 * lit[nz2 >= 0])[:, None].astype(np.uint8)
+
+
+def _shading_map(img, target, cam):
+    """``img``'s shading map (motion.shading on the background's grid, balls expected 0.5-5 m away) and its pixel rows and columns."""
+    small = halved(img)
+    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
+    m = shading(small, target, seen / 0.5, seen / 5.0)
+    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+    return m, yy, xx
+
+
 def test_a_white_balls_ghost_fades_under_a_settled_track_a_white_ball_at_rest_stays():
     """A white ball that sat still while the background started leaves a ghost when it goes: the white wall it
     uncovers differs from the background, which holds the ball. A track that settled there (it lived a while)
@@ -222,10 +240,7 @@ def test_the_shading_map_shows_a_white_ball_at_rest_on_a_white_wall_and_no_flat_
     cv2.circle(img, (200, 390), 14, (150, 150, 150), -1)  # ... and a round thing on it, lit like a ball
     cv2.ellipse(img, (200, 390), (14, 14), 0, 180, 360, (245, 245, 245), -1)
     cv2.line(img, (330, 300), (600, 300), (120, 120, 120), 3)  # a wall's edge
-    small = halved(img)
-    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
-    m = shading(small, white, seen / 0.5, seen / 5.0)
-    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+    m, yy, xx = _shading_map(img, white, cam)
 
     def share(x, y, r=5):
         return m[(xx - x / 2) ** 2 + (yy - y / 2) ** 2 <= r**2].mean()
@@ -252,15 +267,8 @@ def test_the_shading_map_shows_a_white_ball_at_rest_against_the_rooms_long_edges
     img[100:, 560:] = 185  # a door's edge, the height of the image
     cv2.line(img, (60, 300), (400, 300), (120, 120, 120), 3)  # a line that ends on the wall
     balls = ((300, 117), (543, 300))  # two balls at rest, each 3 pixels from an edge
-    yy, xx = np.mgrid[: cam.height, : cam.width]
-    for x, y in balls:  # a sphere lit from above: 150 on its dark side, 245 where it faces the light
-        nz2 = 1 - ((xx - x) ** 2 + (yy - y) ** 2) / 14.0**2
-        lit = np.clip((np.sqrt(np.clip(nz2, 0, 1)) * 0.5 - (yy - y) / 14.0 * 0.85), 0, 1)
-        img[nz2 >= 0] = (150 + 95 * lit[nz2 >= 0])[:, None].astype(np.uint8)
-    small = halved(img)
-    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
-    m = shading(small, white, seen / 0.5, seen / 5.0)
-    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+    _lit_spheres(img, balls)
+    m, yy, xx = _shading_map(img, white, cam)
     for x, y in balls:
         assert m[(xx - x / 2) ** 2 + (yy - y / 2) ** 2 <= 25].mean() > 0.9
     assert m.sum() < 2 * 2 * np.pi * 8**2  # nothing but the balls
@@ -460,15 +468,8 @@ def test_the_shading_map_shows_white_balls_at_rest_that_touch_each_other_or_a_th
     cv2.rectangle(img, (415, 200), (421, 330), (90, 90, 90), -1)  # a table's leg, 7 pixels wide, 130 long
     cv2.rectangle(img, (385, 140), (414, 169), (245, 245, 245), -1)  # a flat white square against it
     balls = ((150, 240), (178, 240), (400, 260))  # two touching, one against the leg
-    yy, xx = np.mgrid[: cam.height, : cam.width]
-    for x, y in balls:  # a sphere lit from above: 150 on its dark side, 245 where it faces the light
-        nz2 = 1 - ((xx - x) ** 2 + (yy - y) ** 2) / 14.0**2
-        lit = np.clip((np.sqrt(np.clip(nz2, 0, 1)) * 0.5 - (yy - y) / 14.0 * 0.85), 0, 1)
-        img[nz2 >= 0] = (150 + 95 * lit[nz2 >= 0])[:, None].astype(np.uint8)
-    small = halved(img)
-    seen = cam.focal_px * RADIUS / 2  # apparent radius at 1 m on the background's grid
-    m = shading(small, white, seen / 0.5, seen / 5.0)
-    yy, xx = np.mgrid[: small.shape[0], : small.shape[1]]
+    _lit_spheres(img, balls)
+    m, yy, xx = _shading_map(img, white, cam)
     for x, y in balls:
         assert m[(xx - x / 2) ** 2 + (yy - y / 2) ** 2 <= 16].mean() > 0.9
     assert m[(xx - 400 / 2) ** 2 + (yy - 155 / 2) ** 2 <= 25].sum() == 0  # the square

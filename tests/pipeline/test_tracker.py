@@ -48,6 +48,27 @@ def per_object_errors(tracks, truth, start=0):
     return out
 
 
+def _white_and_orange(**tracker):
+    """A config of a white target and an orange one, with these tracker settings."""
+    return config_from_dict(
+        {
+            "targets": [
+                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
+                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
+            ],
+            "tracker": tracker,
+        }
+    )
+
+
+def _noise_frames(tracker, rig, n: int) -> None:
+    """Step ``tracker`` through ``n`` frames of uniform noise in every camera (seeded)."""
+    rng = np.random.default_rng(3)
+    for i in range(n):
+        images = tuple(rng.integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8) for cam in rig.cameras)
+        tracker.step(FramePair(i, images, tuple(i / 30 for _ in images)))
+
+
 def test_static_balls_at_06_12_20_m_within_a_centimetre():
     tracks, truth, _ = run_scene("static_depths", 24)
     errors = per_object_errors(tracks, truth, start=6)  # after confirmation
@@ -275,21 +296,10 @@ def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, 
     calls = []
     real = tracker_module.shading
     monkeypatch.setattr(tracker_module, "shading", lambda *a, **k: calls.append(a[1].name) or real(*a, **k))
-    config = config_from_dict(
-        {
-            "targets": [
-                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
-                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
-            ],
-            "tracker": {"shading": shading, "background_start": 0},
-        }
-    )
+    config = _white_and_orange(shading=shading, background_start=0)
     rig = default_rig()
     tracker = Tracker(rig, config)
-    rng = np.random.default_rng(3)
-    for i in range(3):
-        images = tuple(rng.integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8) for cam in rig.cameras)
-        tracker.step(FramePair(i, images, tuple(i / 30 for _ in images)))
+    _noise_frames(tracker, rig, 3)
     assert calls == (["white"] * len(rig.cameras) * 3 if shading else []), calls
 
 
@@ -317,15 +327,7 @@ def test_a_white_targets_tentative_tracks_keep_their_discs_out_of_the_background
     seen = []
     real = BackgroundModel.update
     monkeypatch.setattr(BackgroundModel, "update", lambda self, image, balls=None, *a: seen.append(balls) or real(self, image, balls, *a))
-    config = config_from_dict(
-        {
-            "targets": [
-                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
-                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
-            ],
-            "tracker": {"background_start": 0},
-        }
-    )
+    config = _white_and_orange(background_start=0)
     rig = default_rig()
     tracker = Tracker(rig, config)
     seen.clear()  # (the kernels' warm-up ran a tracker of its own)
@@ -415,28 +417,16 @@ def test_a_white_targets_moving_pixels_are_not_weighed_against_what_the_backgrou
     real = gather.CameraEvidence.from_mask
 
     def spy(camera, mask, *args, **kwargs):
-        given.setdefault(camera.name, []).append(
-            args[7]
-        )  # background (after integral, blob_method, min_blob_area, foreground, ball, colour_table, hsv)
+        # background: after integral, blob_method, min_blob_area, foreground, ball, colour_table and hsv
+        given.setdefault(camera.name, []).append(args[7])
         return real(camera, mask, *args, **kwargs)
 
     monkeypatch.setattr(gather.CameraEvidence, "from_mask", staticmethod(spy))
-    config = config_from_dict(
-        {
-            "targets": [
-                {"name": "white", "hsv_min": [0, 0, 150], "hsv_max": [179, 55, 255], "radius": 0.03},
-                {"name": "orange", "hsv_min": [5, 120, 120], "hsv_max": [20, 255, 255], "radius": 0.03},
-            ],
-            "tracker": {"background_start": 0},
-        }
-    )
+    config = _white_and_orange(background_start=0)
     rig = default_rig()
     tracker = Tracker(rig, config)
     given.clear()  # (the kernels' warm-up ran a tracker of its own)
-    rng = np.random.default_rng(3)
-    for i in range(3):
-        images = tuple(rng.integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8) for cam in rig.cameras)
-        tracker.step(FramePair(i, images, tuple(i / 30 for _ in images)))
+    _noise_frames(tracker, rig, 3)
     for cam in rig.cameras:  # per frame: white, then orange (the first frame's background is not compared: both None)
         white, orange = given[cam.name][2::2], given[cam.name][3::2]
         assert all(b is None for b in white) and all(b is not None for b in orange)
