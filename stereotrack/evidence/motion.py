@@ -141,7 +141,7 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     # in a patch too wide or not round. The largest discs inside such patches (their distance transform's peaks), a
     # pixel inside them (that spread), are looked at again as patches of their own: a ball's is its own disc, an
     # edge's a few pixels wide.
-    if joined.any():
+    if joined is not None:
         balls |= _ball_patches(joined, shaded, edges, grey, direction, straight, near_px, far_px, _inner_discs(joined, far_px, near_px))[0]
     return balls
 
@@ -152,9 +152,9 @@ def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np
     ball's patch is its disc and its rim's spread), and parted from the others it meets: labels (int32, 0 none) and
     stats (per label, row 0 the rest: x, y, width, height, area), as cv2.connectedComponentsWithStats gives them (which
     takes 8 times as long as the labelling alone)."""
-    inside = cv2.distanceTransform(patches, cv2.DIST_L2, 3)
+    fits = cv2.distanceTransform(patches, cv2.DIST_L2, 3)  # per pixel, the radius of the largest disc there in the patch
     low = max(far_px / 1.3, SHADING_MIN_RADIUS)
-    peak = ((inside >= cv2.dilate(inside, None)) & (inside >= low) & (inside <= 1.3 * near_px)).astype(np.uint8)
+    peak = ((fits >= cv2.dilate(fits, None)) & (fits >= low) & (fits <= 1.3 * near_px)).astype(np.uint8)
     n, labels = cv2.connectedComponents(peak, connectivity=8)
     if n <= 1:
         return np.zeros(patches.shape, np.int32), np.zeros((1, 5), np.int32)
@@ -162,14 +162,14 @@ def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np
     mine = labels[ys, xs]
     count = np.bincount(mine, minlength=n)[1:]
     centres = np.column_stack([np.bincount(mine, xs, n)[1:], np.bincount(mine, ys, n)[1:]]) / count[:, None]  # as OpenCV's
-    radii = _per_label(np.maximum, inside[ys, xs], mine, n, 0)[1:]
+    radii = _per_label(np.maximum, fits[ys, xs], mine, n, 0)[1:]
     order = np.argsort(-radii, kind="stable")  # the largest first; a peak inside a disc chosen is a lump of it
     centres, radii = centres[order], radii[order]
-    inside_of = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) <= radii[:, None]  # [i, j]: j in i's disc
+    within = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) <= radii[:, None]  # [i, j]: j in i's disc
     lump = np.zeros(len(order), bool)
     for i in range(len(order)):
         if not lump[i]:
-            lump[i + 1 :] |= inside_of[i, i + 1 :]
+            lump[i + 1 :] |= within[i, i + 1 :]
     chosen = [(u, v, r) for (u, v), r, gone in zip(centres, radii, lump) if not gone]
     drawn = np.zeros(patches.shape, np.float32)  # each disc's number (1, 2 ...), the larger drawn over the smaller
     for number, (u, v, r) in reversed(list(enumerate(chosen, 1))):
@@ -204,18 +204,18 @@ def _per_label(reduce, values: np.ndarray, labels: np.ndarray, n: int, empty) ->
     return out
 
 
-def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px, drawn=None) -> tuple[np.ndarray, np.ndarray]:
+def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px, discs=None) -> tuple[np.ndarray, np.ndarray | None]:
     """The patches of a shading map (``out``, uint8 0/1, holes filled) that could be a ball (motion.shading's tests):
     round, as wide as a ball between ``far_px`` and ``near_px``, showing gradient themselves (``shaded``, before the
     holes were filled), alone on something flat (``edges`` around them), with a lit side and a limb (``grey``), a rim
-    pointing every way (``direction``), and a disc on their own where cut off a ``straight`` edge. ``drawn``: instead
+    pointing every way (``direction``), and a disc on their own where cut off a ``straight`` edge. ``discs``: instead
     of ``out``'s patches, discs drawn a pixel inside a patch (_inner_discs: their labels and stats): discs already, and
     their ring starts beyond that pixel and the rim's spread. The patches kept, and those too wide or not round
-    (perhaps a ball joined to something), uint8 0/1 each."""
+    (perhaps a ball joined to something; None when there is none), uint8 0/1 each."""
     h, w = out.shape
-    labels, stats = drawn if drawn is not None else cv2.connectedComponentsWithStats(out, connectivity=8)[1:3]
+    drawn = discs is not None
+    labels, stats = discs if drawn else cv2.connectedComponentsWithStats(out, connectivity=8)[1:3]
     n = len(stats)
-    drawn = drawn is not None
     x, y, bw, bh, area = stats.T
     wide, narrow = np.maximum(bw, bh) / 2.0, np.minimum(bw, bh) / 2.0
     round_ = (wide <= SHADING_ASPECT * narrow) & (area >= SHADING_FILL * np.pi * wide * narrow)
@@ -223,7 +223,7 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
     keep[0] = False
     joined = ~round_ | (narrow > near_px * 1.3)
     joined[0] = False
-    joined = joined.astype(np.uint8)[labels]
+    joined = joined.astype(np.uint8)[labels] if joined.any() else None
     keep &= area <= SHADING_SQUARE * bw * bh  # a disc fills pi / 4 of its box, a switch or a socket all of it
     if not keep.any():
         return np.zeros_like(out), joined
