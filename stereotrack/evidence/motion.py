@@ -150,7 +150,7 @@ def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np
     """The largest discs inside ``patches`` (uint8 0/1) centred where its distance transform peaks with a radius a
     ball's between ``far_px`` and ``near_px`` could have (shading's bounds), each a pixel narrower than it fits (a
     ball's patch is its disc and its rim's spread), and parted from the others it meets: labels (int32, 0 none) and
-    stats (per label, row 0 the rest: x, y, width, height, area), as cv2.connectedComponentsWithStats gives them (which
+    stats (per label: x, y, width, height, area; row 0 unused), as cv2.connectedComponentsWithStats gives them (which
     takes 8 times as long as the labelling alone)."""
     fits = cv2.distanceTransform(patches, cv2.DIST_L2, 3)  # per pixel, the radius of the largest disc there in the patch
     low = max(far_px / 1.3, SHADING_MIN_RADIUS)
@@ -162,7 +162,7 @@ def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np
     mine = labels[ys, xs]
     count = np.bincount(mine, minlength=n)[1:]
     centres = np.column_stack([np.bincount(mine, xs, n)[1:], np.bincount(mine, ys, n)[1:]]) / count[:, None]  # as OpenCV's
-    radii = _per_label(np.maximum, fits[ys, xs], mine, n, 0)[1:]
+    radii = _per_label(np.maximum, fits[ys, xs], mine, n, 0.0)[1:]
     order = np.argsort(-radii, kind="stable")  # the largest first; a peak inside a disc chosen is a lump of it
     centres, radii = centres[order], radii[order]
     within = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) <= radii[:, None]  # [i, j]: j in i's disc
@@ -179,22 +179,20 @@ def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np
     apart = np.where(drawn > 0, drawn, np.float32(len(chosen) + 1))
     meets = (cv2.dilate(drawn, None) != drawn) | (cv2.erode(apart, None) != apart)
     out = np.where(meets, 0, drawn).astype(np.int32)
-    xs, ys = cv2.findNonZero((out > 0).astype(np.uint8)).reshape(-1, 2).T if out.any() else (np.zeros(0, np.int64),) * 2
-    mine = out[ys, xs]
+    xy = cv2.findNonZero((out > 0).astype(np.uint8)).reshape(-1, 2) if out.any() else np.zeros((0, 2), np.int32)
+    mine = out[xy[:, 1], xy[:, 0]]
     m = len(chosen) + 1
-    x0, y0 = _per_label(np.minimum, xs, mine, m, patches.shape[1]), _per_label(np.minimum, ys, mine, m, patches.shape[0])
-    x1, y1 = _per_label(np.maximum, xs, mine, m, -1), _per_label(np.maximum, ys, mine, m, -1)
+    first, last = _per_label(np.minimum, xy, mine, m, 0), _per_label(np.maximum, xy, mine, m, -1)
     area = np.bincount(mine, minlength=m)
-    stats = np.column_stack([x0, y0, x1 - x0 + 1, y1 - y0 + 1, area])
-    stats[area == 0] = 0
-    stats[0] = (0, 0, patches.shape[1], patches.shape[0], patches.size - area[1:].sum())
+    stats = np.column_stack([first, last - first + 1, area])
+    stats[area == 0] = 0  # (and row 0: no pixel is labelled 0)
     return out, stats.astype(np.int32)
 
 
 def _per_label(reduce, values: np.ndarray, labels: np.ndarray, n: int, empty) -> np.ndarray:
-    """Per label 0 .. n - 1, ``reduce`` (np.minimum, np.maximum) of its ``values`` (``empty`` for a label without
-    any): a sort and one reduceat, where ufunc.at takes several times as long."""
-    out = np.full(n, empty, dtype=np.result_type(values, type(empty)))
+    """Per label 0 .. n - 1, ``reduce`` (np.minimum, np.maximum) of its ``values`` (K, or K x D: per column), ``empty``
+    for a label without any: a sort and one reduceat, where ufunc.at takes several times as long."""
+    out = np.full((n, *values.shape[1:]), empty, dtype=np.result_type(values, type(empty)))
     if not len(values):
         return out
     order = np.argsort(labels, kind="stable")
@@ -239,10 +237,8 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
         ring = np.maximum((grown[2] - grown[0]) * (grown[3] - grown[1]) - (box[2] - box[0]) * (box[3] - box[1]), 1)
         keep &= _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= (SHADING_BUSY_DRAWN if drawn else SHADING_BUSY) * ring
     if keep.any():  # a sphere's lit side and its limb differ: a flat decal (a switch, a socket) is one grey
-        top, bottom = np.zeros(n, np.float32), np.full(n, 255, np.float32)
-        np.maximum.at(top, mine, grey[candidates])
-        np.minimum.at(bottom, mine, grey[candidates])
-        keep &= top - bottom >= SHADING_CONTRAST
+        shades = grey[candidates]
+        keep &= _per_label(np.maximum, shades, mine, n, 0.0) - _per_label(np.minimum, shades, mine, n, 255.0) >= SHADING_CONTRAST
     if keep.any():  # a ball's rim turns all the way round: its gradient points every way, a corner's or a line end's not
         way = (direction[candidates] * (SHADING_WAYS / (2 * np.pi))).astype(np.int32) % SHADING_WAYS
         rim = shaded[candidates] > 0
