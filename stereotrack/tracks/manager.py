@@ -155,7 +155,6 @@ class TrackManager:
             if tr.confirmed:  # the frames it was past tentative, counted as ``predicted`` showed them
                 tr.settled = self._settled(tr, tr.x[:3])
                 tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
-                tr.travelled = tr.travelled or self._travelled(tr, tr.x[:3])
                 tr.shown += 1
         self._forget_catches_of_seen_balls()
         by_target: dict[str, list[int]] = {}
@@ -202,6 +201,12 @@ class TrackManager:
                     self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
+        for t in self._tracks:
+            # Where its ball was seen, not where the motion model carried it unseen: a still thing's track coasts on the
+            # velocity its noisy depths gave it (fast_ball tune seed 47: a poster's patch 20 m away, seen one frame in
+            # five, drifted off its spot while coasting, and as a ball that moved it was never judged as scenery again).
+            if t.confirmed and t.hit:
+                t.travelled = t.travelled or self._travelled(t, t.x[:3])
         for t in self._tracks:
             if t.hit and not t.confirmed:
                 t.early.append((time, t.x[:3].copy(), t.P[:3, :3].copy(), t.n_particles))

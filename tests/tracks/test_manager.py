@@ -675,3 +675,26 @@ def test_a_track_travels_when_a_camera_sees_it_move_not_when_its_depth_strays():
         for i in range(30):
             tracks = m.update([obj(path(i / fps), sigma=0.3)], i / fps)
         assert [tr.travelled for tr in tracks if tr.state != "tentative"] == [moves]
+
+
+def test_a_still_things_track_does_not_travel_by_coasting_on_a_velocity_its_noise_gave_it():
+    """``travelled`` is judged where the thing was seen: a still thing's track, given a velocity by its last few noisy
+    positions (4 cm across the view in 4 frames, under two radii), and then unseen, coasts on it past two radii from
+    its spot; it has not travelled (fast_ball tune seed 47: a poster's patch 20 m away, seen one frame in five, drifted
+    so while coasting and, counted as a ball that moved, was never judged a patch of the surface again). A ball that
+    moves as far while seen has (``test_a_track_travels_when_a_camera_sees_it_move_not_when_its_depth_strays``)."""
+    from scene_helpers import default_rig
+
+    rig = default_rig()
+    fps, radius = 30.0, 0.03
+    spot = np.array([0.0, 4.0, 0.0])
+    m = TrackManager(TrackSettings(), rig, radius={"red": radius})
+    seen = [spot] * 6 + [spot + np.array([0.012 * k, 0.0, 0.0]) for k in range(1, 5)]  # frames 0-9; then unseen
+    travelled, coasted = [], 0.0
+    for i in range(20):
+        tracks = m.update([obj(seen[i], sigma=0.01)] if i < len(seen) else [], i / fps)
+        shown = [tr for tr in tracks if tr.state != "tentative"]
+        travelled += [tr.travelled for tr in shown]
+        coasted = max([coasted] + [float(np.linalg.norm(tr.position - spot)) for tr in shown])
+    assert coasted > 2 * radius, coasted  # the case is what it says: its prediction left the spot
+    assert travelled and not any(travelled)
