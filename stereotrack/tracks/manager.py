@@ -51,6 +51,13 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 # median MOTA 0.950 -> 0.964 (tracker seed 1: 0.950 -> 0.965), misses in a ball's first three frames 141 -> 123
 # (x 2: 0.958, x 10: 0.963, x 100: 0.961, its third hit's gate too wide: seed 27 0.80 -> 0.39).
 FIRST_HIT_SIGMAS = 2.0
+# A track seen once whose second object is this fast (m/s) from its first starts from the two points (``_start_moving``)
+# in its gate too, not only past it (``_two_point``): a far ball's objects are vague enough that its second falls in the
+# gate of a ball at rest, and its velocity then came from the at-rest prior (init_speed_sigma), its first frames off
+# (fast_ball tune seed 28: 0.57 -> 0.98 with tracker seeds 0 and 1; no other tune seed of six categories moved by 0.05).
+# Slower, the jump may be an object's noise: at 5 m/s an empty hand's track started so was confirmed as a thrown ball
+# (hands tune seed 17: 0.97 -> 0.56).
+TWO_POINT_SPEED = 10.0
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
 SWEPT_CONFIRM_RADII = 2.0
@@ -377,7 +384,12 @@ class TrackManager:
         tr.link = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
-        tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
+        dt = time - tr.last_hit
+        seen_once = tr.hits == 1 and not tr.x[3:].any()  # a new or restarted track: where it was seen, no velocity yet
+        if seen_once and self.settings.max_speed > 0 and dt > _EPS_TIME and np.linalg.norm(z - tr.x[:3]) >= TWO_POINT_SPEED * dt:
+            self._start_moving(tr, tr.x[:3].copy(), z, R, dt)
+        else:
+            tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
         self._hit(tr, z, R, obj, time)
 
     def _two_point(self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, time: float) -> None:
