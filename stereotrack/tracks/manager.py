@@ -45,18 +45,13 @@ from .motion import motion_model
 from .smoothing import FilterHistory
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
-# A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39, far
-# and near: |error| / sigma along the rays, median 0.33 against 0.21 from the fourth object on, 90th percentile 1.93
-# against 0.78). Counted so (its variance x 4), the smoother revises it from the later hits: fast_ball tune seeds 0-79,
-# median MOTA 0.950 -> 0.964 (tracker seed 1: 0.950 -> 0.965), misses in a ball's first three frames 141 -> 123
-# (x 2: 0.958, x 10: 0.963, x 100: 0.961, its third hit's gate too wide: seed 27 0.80 -> 0.39).
+# A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
+# |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
+# Counted so, the smoother revises it from later hits (fast_ball tune median 0.950 -> 0.964; at x 2, 10, 100: 0.958-0.963).
 FIRST_HIT_SIGMAS = 2.0
-# A track seen once whose second object is this fast (m/s) from its first starts from the two points (``_start_moving``)
-# in its gate too, not only past it (``_two_point``): a far ball's objects are vague enough that its second falls in the
-# gate of a ball at rest, and its velocity then came from the at-rest prior (init_speed_sigma), its first frames off
-# (fast_ball tune seed 28: 0.57 -> 0.98 with tracker seeds 0 and 1; no other tune seed of six categories moved by 0.05).
-# Slower, the jump may be an object's noise: at 5 m/s an empty hand's track started so was confirmed as a thrown ball
-# (hands tune seed 17: 0.97 -> 0.56).
+# A track seen once whose second object is this fast (m/s) from its first starts from the two points in its gate too (not
+# only past it: ``_two_point``): a far ball's vague second object fell in an at-rest gate, its velocity from that prior
+# (fast_ball tune seed 28: 0.57 -> 0.98). Slower may be noise: at 5 m/s an empty hand's track was confirmed as a throw.
 TWO_POINT_SPEED = 10.0
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
@@ -215,9 +210,9 @@ class TrackManager:
                 live = np.vstack([live, z[j]])
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         for t in self._tracks:
-            # Where its ball was seen, not where the motion model carried it unseen: a still thing's track coasts on the
+            # Where its ball was seen, not where the motion model carried it unseen: a still thing's track coasts on a
             # velocity its noisy depths gave it (fast_ball tune seed 47: a poster's patch 20 m away, seen one frame in
-            # five, drifted off its spot while coasting, and as a ball that moved it was never judged as scenery again).
+            # five, drifted so, and as a ball that moved was never judged scenery again).
             if t.confirmed and t.hit:
                 t.travelled = t.travelled or self._travelled(t, t.x[:3])
         for t in self._tracks:
@@ -545,31 +540,15 @@ class TrackManager:
         return False
 
     def _smoothed(self, tr: _Track, time: float) -> tuple:
-        """Keep this frame's state; give each frame smooth_time old by now, smoothed with every later one of the track's
-        (rts_oldest), as (time, position, 3 x 3 covariance), once, oldest first. None is given for a frame the track
-        was reported where a hand caught its ball (it keeps that), for a tentative track (its tentative hits are
-        smoothed the same once it is confirmed, while they are that recent), or with smooth_time 0.
-
-        A filter's estimate at a frame knows only the frames before it: a far ball's depth, a pixel of disparity off in
-        one frame, pulls the track off for several. The smoother's knows the frames after too (fast_ball tune seeds
-        0-59, written smoothed over 0.15 s: median MOTA 0.862 -> 0.926, mean 0.708 -> 0.789)."""
+        """Keep this frame's state; give each frame smooth_time old by now smoothed with the later ones (FilterHistory.
+        revise_until); none with smooth_time 0. A filter's estimate at a frame knows only the frames before it: a far
+        ball's depth, a pixel of disparity off in one frame, pulls the track off for several. The smoother's knows the
+        frames after too (fast_ball tune seeds 0-59, smoothed over 0.15 s: median MOTA 0.862 -> 0.926, mean 0.708 -> 0.789)."""
         window = self.settings.smooth_time
         if window <= 0:
             return ()
         tr.past.append(time, tr.x, tr.P, tr.link, not self._caught_below_launch(tr, tr.x))
-        revised = []
-        # Every frame that is smooth_time old now, not one a frame: after a slower frame (a live frame skipped, a gap)
-        # several are, and one a frame would leave the rest ever later, past the tracks.csv hold.
-        while len(tr.past) and tr.past.oldest()[0] <= time - window + _EPS_TIME:
-            oldest, kept = tr.past.oldest()
-            # A frame it was missed and reported where a hand caught it keeps that (hands tune seed 6: smoothed on down
-            # the parabola, 0.17 m off); one it coasted through on its path is smoothed between the frames it was seen in
-            # (fast_ball tune seeds 0-59: median 0.919 without, 0.936 with).
-            if tr.confirmed and len(tr.past) >= 2 and kept:
-                xs, Ps = tr.past.smoothed_oldest()
-                revised.append((oldest, xs[:3].copy(), Ps[:3, :3].copy()))
-            tr.past.drop_oldest()
-        return tuple(revised)
+        return tr.past.revise_until(time - window + _EPS_TIME, tr.confirmed)
 
     def _caught_below_launch(self, tr: _Track, x: np.ndarray) -> bool:
         """Is this track, missed at state ``x``, a flying ball lost on its way down past the height it was thrown from?
