@@ -49,10 +49,6 @@ FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.con
 # |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
 # Counted so, the smoother revises it from later hits (fast_ball tune median 0.950 -> 0.964; at x 2, 10, 100: 0.958-0.963).
 FIRST_HIT_SIGMAS = 2.0
-# A track seen once whose second object is this fast (m/s) from its first starts from the two points in its gate too (not
-# only past it: ``_two_point``): a far ball's vague second object fell in an at-rest gate, its velocity from that prior
-# (fast_ball tune seed 28: 0.57 -> 0.98). Slower may be noise: at 5 m/s an empty hand's track was confirmed as a throw.
-TWO_POINT_SPEED = 10.0
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
 SWEPT_CONFIRM_RADII = 2.0
@@ -379,12 +375,7 @@ class TrackManager:
         tr.link = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
-        dt = time - tr.last_hit
-        seen_once = tr.hits == 1 and not tr.x[3:].any()  # a new or restarted track: where it was seen, no velocity yet
-        if seen_once and self.settings.max_speed > 0 and dt > _EPS_TIME and np.linalg.norm(z - tr.x[:3]) >= TWO_POINT_SPEED * dt:
-            self._start_moving(tr, tr.x[:3].copy(), z, R, dt)
-        else:
-            tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
+        tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
         self._hit(tr, z, R, obj, time)
 
     def _two_point(self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, time: float) -> None:

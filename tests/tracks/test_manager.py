@@ -652,25 +652,6 @@ def test_a_fast_balls_first_hit_counts_as_vague_as_first_objects_are():
     assert np.linalg.norm(smoothed[0] - p0) < 0.02, np.linalg.norm(smoothed[0] - p0)  # seen 0.035 counted as sharp as claimed
 
 
-def test_a_far_fast_balls_track_starts_from_its_first_two_objects_when_the_second_falls_in_its_gate():
-    """A far ball's objects are vague (0.1 m each way): its second object, a third of a metre on, falls inside the gate
-    of a ball at rest. Started from the two points all the same (TWO_POINT_SPEED), its first frame is smoothed onto its
-    path; corrected as a ball at rest, its velocity came from the at-rest prior and its first frame stayed where the
-    first object was (0.11 m off)."""
-    fps, v, sigma = 60, np.array([-20.0, 0.0, 1.0]), 0.1
-    p0 = np.array([2.0, 5.0, 0.5])
-    m = TrackManager(TrackSettings())
-    smoothed, ids = {}, set()
-    for i in range(20):
-        t = i / fps
-        o = obj(p0 + v * t + np.array([0.0, sigma, 0.0]), sigma=sigma) if i == 0 else obj(p0 + v * t, sigma=sigma)
-        for tr in m.update([o], t):
-            ids.add(tr.track_id)
-            smoothed.update({round(time * fps): p for time, p, _ in tr.smoothed})
-    assert len(ids) == 1
-    assert np.linalg.norm(smoothed[0] - p0) < 0.03, np.linalg.norm(smoothed[0] - p0)
-
-
 def test_a_fast_balls_vague_first_hit_does_not_lose_it_its_third():
     """The first object of a ball cut by the image's edge is vague and 0.5 m off (fast_ball tune seed 7 frame 49): the
     two-point start's velocity is as uncertain as that, and the third hit still falls in the track's gate (taken as
