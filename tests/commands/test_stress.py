@@ -139,11 +139,15 @@ def test_ctrl_c_ends_in_seconds_kills_the_workers_and_keeps_nothing_half_done(tm
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 130 and err.strip().splitlines() == ["interrupted by SIGINT"], err
+    # Under load a worker may finish a scene or two before both are seen rendering (CI, a demo beside it): each said so
+    lines = err.strip().splitlines()
+    finished = lines[:-1]
+    assert proc.returncode == 130 and lines[-1:] == ["interrupted by SIGINT"] and all(" MOTA " in x for x in finished), err
     assert took < 10 and "|" not in out
     assert _group(proc.pid) == []  # every worker gone
     assert doc.read_text() == "# Evaluation\n"
-    assert not list(cache.glob("*/0*/scene.key")) and not list(cache.rglob("score_*.json"))
+    # nothing half-done kept: a scene and its two scores are in the cache only where the run said it finished them
+    assert len(list(cache.glob("*/[0-9]*/scene.key"))) == len(finished) and len(list(cache.rglob("score_*.json"))) == 2 * len(finished)
     assert list(cache.glob("*/.*.partial-*"))  # killed mid-render: the half-written scenes stayed hidden beside their folders
     job = Job("hue_wall", 1_000_000, str(cache), frames=2, scale=0.2)
     assert cli_main(["stress", "--set", "report", "--seeds", "1", "--categories", "hue_wall", "--frames", "2", "--scale", "0.2",
