@@ -47,7 +47,7 @@ from .smoothing import FilterHistory
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
 # |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
-# Counted so, the smoother revises it from later hits (fast_ball tune median 0.950 -> 0.964; at x 2, 10, 100: 0.958-0.963).
+# Counted so (variance x 4), the smoother revises it from later hits: fast_ball tune median 0.950 -> 0.964 (x 2-100: 0.958-0.963).
 FIRST_HIT_SIGMAS = 2.0
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
