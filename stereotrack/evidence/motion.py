@@ -209,7 +209,7 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
     pointing every way (``direction``), and a disc on their own where cut off a ``straight`` edge. ``discs``: instead
     of ``out``'s patches, discs drawn a pixel inside a patch (_inner_discs: their labels and stats): discs already, and
     their ring starts beyond that pixel and the rim's spread. The patches kept, and those too wide or not round
-    (perhaps a ball joined to something; None when there is none), uint8 0/1 each."""
+    (perhaps a ball joined to something; None when there is none, and for ``discs``), uint8 0/1 each."""
     h, w = out.shape
     drawn = discs is not None
     labels, stats = discs if drawn else cv2.connectedComponentsWithStats(out, connectivity=8)[1:3]
@@ -221,7 +221,7 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
     keep[0] = False
     joined = ~round_ | (narrow > near_px * 1.3)
     joined[0] = False
-    joined = joined.astype(np.uint8)[labels] if joined.any() else None
+    joined = joined.astype(np.uint8)[labels] if joined.any() and not drawn else None  # (discs are not searched again)
     keep &= area <= SHADING_SQUARE * bw * bh  # a disc fills pi / 4 of its box, a switch or a socket all of it
     if not keep.any():
         return np.zeros_like(out), joined
