@@ -3,8 +3,9 @@
 Each frame, for one target colour:
 1. sequential part, (1 - alpha) N particles: systematic resampling from last
    frame's combined weighted set, then the motion model (drift by the
-   particle's velocity, if its ball has one, plus an isotropic Gaussian
-   random walk), weighted by the likelihood and normalised to sum to 1 - alpha;
+   particle's velocity, if its ball has one, for three particles in four,
+   plus an isotropic Gaussian random walk), weighted by the likelihood and
+   normalised to sum to 1 - alpha;
 2. abductive part, alpha N particles: placed uniformly along the viewing
    rays of this frame's colour blobs (depth range narrowed by the ball's
    apparent size), and a share (``crossing_share``) around the points where
