@@ -21,8 +21,8 @@ class RandomWalk:
 
     x' = x + s v dt + N(0, sigma^2 I),   s = 0 for every STOPPED_EVERY-th particle, else 1
 
-    The population passes its particles in the order systematic resampling drew them, each cloud's together, so
-    every STOPPED_EVERY-th is that share of each cloud.
+    Systematic resampling keeps the order of the particles it draws from, and the abductive ones are appended ray
+    by ray, so a cloud's particles come in long runs and every STOPPED_EVERY-th is about that share of each cloud.
     """
 
     def __init__(self, sigma: float, stopped_every: int = STOPPED_EVERY):
