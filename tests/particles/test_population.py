@@ -138,6 +138,18 @@ def test_exclusion_kills_particles_of_one_track_inside_another_ball():
     assert state.likelihoods.min() > 0.5
 
 
+def _followed(pop, views, start: np.ndarray, tracks, frames: int):
+    """``pop`` after one step on ``views``, its particles then set at ``start`` weighted by their likelihood, and
+    ``frames`` more steps each following ``tracks``: the last state."""
+    pop.step(views, dt=1 / 30)
+    lik = pop.likelihood(start, views, None)
+    pop.state = dataclasses.replace(pop.state, positions=start, weights=lik / lik.sum(), likelihoods=lik)
+    for _ in range(frames):
+        pop.follow(tracks)
+        state = pop.step(views, dt=1 / 30)
+    return state
+
+
 def _weak_ball_share(track_floor: float, frames: int = 20) -> float:
     """Ball 0 drawn whole, ball 1 with every third row left out (a ball partly hidden in a hand: its likelihood a fifth of
     ball 0's), each followed by a confirmed track; the particles start half on each. No abductive particles: what
@@ -151,17 +163,12 @@ def _weak_ball_share(track_floor: float, frames: int = 20) -> float:
     views = evidence(rig, masks)
     settings = TrackerSettings(particles=1000, alpha=0.0, track_floor=track_floor)
     pop = Population(rig.cameras, settings, TARGET, np.random.default_rng(0))
-    pop.step(views, dt=1 / 30)
     rng = np.random.default_rng(1)
     start = np.repeat(BALLS, 500, axis=0) + rng.normal(0.0, 0.005, (1000, 3))
     lik = pop.likelihood(start, views, None)
     assert lik[500:].mean() < 0.3 * lik[:500].mean()  # the drawn ball 1 is the weak one
-    pop.state = dataclasses.replace(pop.state, positions=start, weights=lik / lik.sum(), likelihoods=lik)
     tracks = [TrackEstimate(k + 1, TARGET.name, b, np.zeros(3), 1e-4 * np.eye(3), "confirmed") for k, b in enumerate(BALLS)]
-    for _ in range(frames):
-        pop.follow(tracks)
-        state = pop.step(views, dt=1 / 30)
-    return share_near(state, BALLS[1])[1]
+    return share_near(_followed(pop, views, start, tracks, frames), BALLS[1])[1]
 
 
 def test_a_tracked_ball_whose_likelihood_falls_keeps_its_share_of_particles():
@@ -183,15 +190,9 @@ def _caught_ball_share(stopped_every: int, frames: int = 5) -> float:
     views = evidence(rig, masks)
     settings = TrackerSettings(particles=1000, alpha=0.0)
     pop = Population(rig.cameras, settings, TARGET, np.random.default_rng(0), motion=RandomWalk(settings.motion_sigma, stopped_every))
-    pop.step(views, dt=1 / 30)
     start = BALLS[0] + np.random.default_rng(1).normal(0.0, 0.005, (1000, 3))
-    lik = pop.likelihood(start, views, None)
-    pop.state = dataclasses.replace(pop.state, positions=start, weights=lik / lik.sum(), likelihoods=lik)
     thrown = [TrackEstimate(1, TARGET.name, BALLS[0], np.array([2.0, 0.0, 0.0]), 1e-4 * np.eye(3), "confirmed")]
-    for _ in range(frames):
-        pop.follow(thrown)
-        state = pop.step(views, dt=1 / 30)
-    return share_near(state, BALLS[0])[1]
+    return share_near(_followed(pop, views, start, thrown, frames), BALLS[0])[1]
 
 
 def test_a_caught_balls_particles_stay_on_it_while_its_tracks_velocity_still_says_it_flies():
