@@ -296,7 +296,8 @@ def test_readme_scene_examples_load_and_render(tmp_path):
         renderer = SceneRenderer(spec)
         images, truth = renderer.render(0)
         assert len(images) == 2 and truth
-    assert len(spec.balls) == 4 and len(spec.occluders) == 1 and [t.name for t in spec.targets()] == ["pink", "orange"]
+    assert len(spec.balls) == 5 and len(spec.occluders) == 1 and [t.name for t in spec.targets()] == ["pink", "orange"]
+    assert spec.balls[4].trajectory.drag == 0.0  # every trajectory type is shown
 
 
 def test_motion_blur_smears_a_fast_ball_along_its_motion():
@@ -335,3 +336,33 @@ def test_the_first_frame_shows_every_ball_whole_under_motion_blur():
     ball = np.abs(later.astype(int) - empty.astype(int)).sum(axis=2) > 6
     assert ball.sum() > 100  # the ball is in view
     assert np.array_equal(first, later)
+
+
+def test_a_flight_with_drag_is_the_same_at_a_time_whatever_else_is_asked_and_without_drag_the_parabola():
+    """A frame renders on its own: a flight with drag, integrated on a fixed grid from its start, gives a time the same
+    position whichever times are asked with it (or before it); without drag it is the closed-form parabola."""
+    from stereotrack.simulation.trajectories import Flight, drag_per_metre
+
+    k = drag_per_metre(0.033, 0.058, 0.55)  # a tennis ball
+    flight = Flight((0.0, 0.0, 1.0), (28.0, 3.0, 2.0), 0.4, k)
+    t = np.array([0.9, 1.7333])
+    alone = Flight((0.0, 0.0, 1.0), (28.0, 3.0, 2.0), 0.4, k).positions(t[1:])
+    assert np.array_equal(flight.positions(t)[1:], alone)
+    assert np.array_equal(flight.positions(np.array([5.0, 1.7333]))[1:], alone)  # a longer grid: the same steps
+    free = Flight((0.0, 0.0, 1.0), (28.0, 3.0, 2.0), 0.4)
+    tau = np.linspace(-0.2, 2.0, 50)
+    parabola = np.array([0.0, 0.0, 1.0]) + (tau - 0.4)[:, None] * np.array([28.0, 3.0, 2.0])
+    parabola[:, 2] -= 0.5 * 9.81 * (tau - 0.4) ** 2
+    assert np.allclose(free.positions(tau), parabola, atol=1e-12)
+    assert np.allclose(Flight((0.0, 0.0, 1.0), (28.0, 3.0, 2.0), 0.4, 1e-12).positions(tau), parabola, atol=1e-6)
+    # Drag only slows it: 1.33 s after the start it is metres short of the parabola's distance
+    assert flight.positions(t)[1, 0] < free.positions(t)[1, 0] - 5.0
+
+
+def test_a_scene_files_flight_takes_a_drag_and_refuses_a_negative_one(tmp_path):
+    scene = tmp_path / "pitch.yaml"
+    scene.write_text("balls:\n  - trajectory: {type: flight, start: [0, 3, 0], velocity: [8, 0, 2], drag: 0.0195}\n")
+    assert load_scene_yaml(scene).balls[0].trajectory.drag == 0.0195
+    scene.write_text("balls:\n  - trajectory: {type: flight, start: [0, 3, 0], velocity: [8, 0, 2], drag: -1}\n")
+    with pytest.raises(StereotrackError, match=r"balls\[0\].trajectory.*drag must be 0-10"):
+        load_scene_yaml(scene)

@@ -203,3 +203,27 @@ def test_a_stress_scene_is_named_category_colon_seed():
     for bad in ("nope:3", "hue_wall:x", "hue_wall", ":4", "hue_wall:-1"):
         with pytest.raises(argparse.ArgumentTypeError, match="CATEGORY:SEED"):
             scene_name(bad)
+
+
+def test_a_fast_ball_slows_by_air_drag_as_its_kind_does():
+    """A pitched ball is no drag-free parabola: a tennis ball at 30 m/s slows by about 18 m/s^2, a baseball by 6. Each
+    fast_ball scene's balls slow as their kind's drag says (k |v| v), and fall by g besides."""
+    from stereotrack.simulation.stress import BALL_KINDS
+    from stereotrack.simulation.trajectories import drag_per_metre
+
+    seen = set()
+    for seed in range(6):
+        spec = stress_scene("fast_ball", seed)
+        kinds = {drag_per_metre(*kind): name for name, kind in BALL_KINDS.items()}
+        for ball in spec.balls:
+            flight = ball.trajectory
+            assert flight.drag in kinds
+            seen.add(kinds[flight.drag])
+            h, t = 1e-3, flight.t0 + np.array([0.1, 0.3])
+            p = flight.positions(np.r_[t - h, t, t + h])
+            v = (p[4:] - p[:2]) / (2 * h)  # at t
+            a = (p[4:] - 2 * p[2:4] + p[:2]) / h**2
+            expected = np.array([0.0, 0.0, -9.81]) - flight.drag * np.linalg.norm(v, axis=1)[:, None] * v
+            assert np.allclose(a, expected, atol=0.05), (seed, a, expected)
+            assert np.linalg.norm(v[1]) < np.linalg.norm(v[0]) - 0.1
+    assert len(seen) >= 2
