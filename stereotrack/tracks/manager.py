@@ -41,7 +41,7 @@ from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import motion_model
+from .motion import entering, motion_model
 from .smoothing import FilterHistory
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
@@ -101,6 +101,7 @@ class _Track:
     settled: bool = False  # see ``TrackManager._settled``
     travelled: bool = False  # see ``TrackManager._travelled``
     early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
+    entry: tuple | None = None  # (time of the frame before its first hit, its first hit as in ``early``) until judged (``_entered``)
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
     past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
 
@@ -126,6 +127,7 @@ class TrackManager:
         self._up = None if up is None else np.asarray(up, float) / np.linalg.norm(up)
         self._tracks: list[_Track] = []
         self._next_id = 1
+        self._time = self._before = None  # this update's time and the one before (None: none yet)
         self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ------------------------------------------------------------------ public
@@ -149,6 +151,7 @@ class TrackManager:
         confirmed (seen this frame) and coasting (confirmed, unseen this frame).
         """
         s = self.settings
+        self._before, self._time = self._time, time
         for tr in self._tracks:
             tr.x, tr.P, F = self._predict(tr, time)
             tr.link = (tr.x.copy(), tr.P.copy(), F)
@@ -217,7 +220,8 @@ class TrackManager:
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
         smoothed = [self._smoothed(t, time) for t in self._tracks]
         estimates = tuple(
-            self._estimate(t, t.x, t.P, v, t.settled, t.early if t.confirmed else (), sm) for t, v, sm in zip(self._tracks, seen, smoothed)
+            self._estimate(t, t.x, t.P, v, t.settled, self._entered(t) + t.early if t.confirmed else (), sm)
+            for t, v, sm in zip(self._tracks, seen, smoothed)
         )
         for t in self._tracks:
             if t.confirmed and t.early:
@@ -490,8 +494,16 @@ class TrackManager:
         # A ``rival`` (``_lost_near``) may be the same ball: its track gets the hits to win it back first.
         fast = self.settings.confirm_speed > 0 and obj.swept and bool(self._sharp(target, R)) and not rival
         tr.confirmed = self.settings.confirm_time <= _EPS_TIME or fast
+        tr.entry = None if self._before is None or self.rig is None else (self._before, (time, z.copy(), R.copy(), tr.n_particles))
         self._next_id += 1
         return tr
+
+    def _entered(self, tr: _Track) -> list:
+        """``motion.entering``, once a confirmed track has FAST_CONFIRM_HITS hits (a velocity to go back by)."""
+        if tr.entry is None or not tr.confirmed or tr.hits < FAST_CONFIRM_HITS:
+            return []
+        entry, tr.entry = tr.entry, None
+        return entering(entry, tr.x, tr.P, self.settings.confirm_speed, self._in_view)
 
     def _sharp(self, target: str, R: np.ndarray) -> np.ndarray:
         """Per measurement covariance (... x 3 x 3): placed to within SWEPT_CONFIRM_RADII ball radii (one sigma, its
