@@ -9,7 +9,6 @@ flight with air drag), so any frame can be rendered on its own.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
@@ -140,8 +139,8 @@ class Flight:
     t0: float = 0.0
     drag: float = 0.0
 
-    STEP = 1e-3  # seconds: the grid a flight with drag is integrated on (fourth-order Runge-Kutta) ...
-    SPAN = 4.0  # ... this long at first, longer when asked
+    STEP = 1e-3  # seconds: the grid a flight with drag is integrated on (fourth-order Runge-Kutta), from t0 ...
+    CHUNK = 0.5  # ... this many seconds at a time, as far as a time asked needs
 
     def __post_init__(self):
         if not (np.isfinite(self.drag) and 0.0 <= self.drag <= 10.0):
@@ -165,26 +164,29 @@ class Flight:
         return h00 * p[i] + h10 * self.STEP * v[i] + h01 * p[i + 1] + h11 * self.STEP * v[i + 1]
 
     def _grid(self, until: float) -> tuple[np.ndarray, np.ndarray]:
-        table = self._table
-        if (len(table[0]) - 2) * self.STEP < until:  # (a flight asked beyond SPAN: integrated afresh, as long as asked)
-            return self._integrate(until + self.STEP)
-        return table
+        """Positions and velocities every STEP from t0 to ``until`` seconds after it or further, integrated once and
+        extended when a later time is asked: each step follows from the one before, so a time's position is the same
+        whatever was asked before it."""
+        p, v = self.__dict__.get("_integrated", (np.empty((0, 3)), np.empty((0, 3))))
+        if len(p) < 2 or (len(p) - 2) * self.STEP < until:
+            n = int(np.ceil(until / self.CHUNK) * round(self.CHUNK / self.STEP)) + 2
+            p, v = self._integrate(n, p, v)
+            self.__dict__["_integrated"] = (p, v)  # a cache, not a field: the frozen flight is unchanged
+        return p, v
 
-    @cached_property
-    def _table(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._integrate(self.SPAN)
-
-    def _integrate(self, span: float) -> tuple[np.ndarray, np.ndarray]:
-        n = int(np.ceil(span / self.STEP)) + 2
+    def _integrate(self, n: int, p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The first ``n`` steps, continuing the ``p``, ``v`` already integrated (none: from the start)."""
         g = np.array([0.0, 0.0, -G])
 
-        def accel(v: np.ndarray) -> np.ndarray:
-            return g - self.drag * np.linalg.norm(v) * v
+        def accel(u: np.ndarray) -> np.ndarray:
+            return g - self.drag * np.linalg.norm(u) * u
 
-        p, v = np.empty((n, 3)), np.empty((n, 3))
-        p[0], v[0] = self.start, self.velocity
+        done = max(len(p), 1)
+        p, v = np.vstack([p, np.empty((n - len(p), 3))]), np.vstack([v, np.empty((n - len(v), 3))])
+        if done == 1:
+            p[0], v[0] = self.start, self.velocity
         h = self.STEP
-        for k in range(n - 1):
+        for k in range(done - 1, n - 1):
             x, u = p[k], v[k]
             a1 = accel(u)
             a2 = accel(u + 0.5 * h * a1)
