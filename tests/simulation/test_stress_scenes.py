@@ -211,10 +211,10 @@ def test_a_fast_ball_slows_by_air_drag_as_its_kind_does():
     from stereotrack.simulation.stress import BALL_KINDS
     from stereotrack.simulation.trajectories import drag_per_metre
 
+    kinds = {drag_per_metre(*kind): name for name, kind in BALL_KINDS.items()}
     seen = set()
     for seed in range(6):
         spec = stress_scene("fast_ball", seed)
-        kinds = {drag_per_metre(*kind): name for name, kind in BALL_KINDS.items()}
         for ball in spec.balls:
             flight = ball.trajectory
             assert flight.drag in kinds
