@@ -20,7 +20,7 @@ from .blob_kernels import faint_pixels, pale_cells, streak_candidates
 from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
 from .colour import integral_image, range_bounds
 from .coverage import coverage_centres
-from .kernels import evidence_maps, halved_frame, picked_and_halved
+from .kernels import evidence_maps, halved_frame, picked_and_halved, row_maxima
 from .motion import halved
 
 
@@ -140,17 +140,16 @@ class CameraEvidence:
         in_range = mask
         soft_integral = moving = moving_integral = soft = rows = None
         if colour_table is not None or foreground is not None:
-            soft = np.zeros_like(in_range) if colour_table is not None else None
-            mask = np.zeros_like(in_range) if colour_table is not None else in_range
-            moving = np.zeros_like(in_range) if foreground is not None else None
             h, w = in_range.shape
+            soft = np.zeros((h, w), in_range.dtype) if colour_table is not None else None
+            mask = np.zeros((h, w), in_range.dtype) if colour_table is not None else in_range
+            moving = np.zeros((h, w), in_range.dtype) if foreground is not None else None
             streaky = streak_range is not None and motion_range is None and foreground is not None
             motion_range = streak_range if streaky else motion_range
             own = motion_range is not None and foreground is not None
-            rows = in_range.max(axis=1)  # which rows hold any pixel in range (numpy's reduction is vectorised)
             fg_rows = _nearest(foreground.shape[0], h) if foreground is not None else _NO_INDEX
-            if own:  # the moving rows too; no map has a pixel outside these rows
-                rows = np.maximum(rows, foreground.max(axis=1)[fg_rows])
+            # which rows hold any pixel in range, and (``own``) the moving rows too; no map has a pixel outside these rows
+            rows = row_maxima(in_range, foreground if own else _NO_TABLE, fg_rows)
             pale = evidence_maps(
                 in_range,
                 rows,
@@ -165,6 +164,7 @@ class CameraEvidence:
                 moving if moving is not None else _NO_TABLE,
                 background if background is not None and foreground is not None else _NO_HSV,
                 things if things is not None else _NO_TABLE,
+                words(in_range),
             )
             if colour_table is not None:
                 soft_integral = integral_image(soft)

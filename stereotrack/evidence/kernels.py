@@ -101,7 +101,36 @@ def range_mask(hsv, bounds):
 
 
 @kernel
-def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind, things):
+def row_maxima(image, other, other_rows):
+    """Per row of ``image`` (H x W) its largest value (``image.max(axis=1)``); with ``other`` (a map on a coarser grid;
+    empty: none) the larger of that and the largest of the ``other`` row ``other_rows[y]`` that row y reads
+    (``np.maximum(image.max(axis=1), other.max(axis=1)[other_rows])``): gather.py's rows that may hold a pixel of any map,
+    in one pass the compiler vectorises (numpy's row reductions took several times as long)."""
+    h, w = image.shape
+    out = np.zeros(h, image.dtype)
+    for y in range(h if w else 0):
+        row = image[y]
+        top = row[0]
+        for x in range(1, w):
+            top = max(top, row[x])
+        out[y] = top
+    if other.shape[0]:
+        tops = np.zeros(other.shape[0], other.dtype)
+        for y in range(other.shape[0] if other.shape[1] else 0):
+            row = other[y]
+            top = row[0]
+            for x in range(1, other.shape[1]):
+                top = max(top, row[x])
+            tops[y] = top
+        for y in range(h):
+            out[y] = max(out[y], tops[other_rows[y]])
+    return out
+
+
+@kernel
+def evidence_maps(
+    in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_cols, motion_range, soft, mask, moving, behind, things, range_words
+):
     """The maps a target's range mask (0/1) in one camera gives, written into zeroed arrays, pixels out of
     range left 0:
 
@@ -122,7 +151,10 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
       before a colour out of them (a skin-coloured hand before a wall).
     Rows ``rows_in_range`` marks 0 are passed over: the caller marks the rows with a pixel in range and, with a
     motion range, those with a foreground cell (most rows hold neither: the range is a few balls).
-    Returns how many moving pixels are out of the range (with a motion range: its paler pixels)."""
+    ``range_words``: ``in_range``'s first pixels of each row 8 at a time (gather.words): a run of 8 with none in range, and
+    (with a motion range) no foreground cell any of them reads, is passed over (most of a marked row is: their pixels
+    are left 0, as the maps come). Returns how many moving pixels are out of the range (with a motion range: its paler
+    pixels)."""
     h, w = in_range.shape
     pale = 0
     use_table = table.shape[0] > 0
@@ -134,26 +166,36 @@ def evidence_maps(in_range, rows_in_range, hsv, table, foreground, fg_rows, fg_c
         if not rows_in_range[y]:
             continue
         fy = fg_rows[y] if use_fg else 0
-        for x in range(w):
-            inside = in_range[y, x]
-            p = 0
-            if inside and use_table:
-                p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
-                soft[y, x] = p
-                mask[y, x] = 1 if p > 127 else 0
-            if use_fg and (own_motion_range or inside):
-                fx = fg_cols[x]
-                moves = foreground[fy, fx] != 0
-                if moves and own_motion_range:
-                    moves = _in_bounds(hsv[y, x, 0], hsv[y, x, 1], hsv[y, x, 2], motion_range)
-                if moves and use_behind and inside:
-                    hue, sat = _hue_sat(behind[fy, fx, 0], behind[fy, fx, 1], behind[fy, fx, 2])
-                    was = table[hue // HUE_STEP, sat // SAT_STEP]
-                    thing = use_things and things[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP] != 0
-                    moves = p >= was and (p > 127 or was > 0 or not thing)
-                moving[y, x] = 1 if moves else 0
-                if moves and not inside:
-                    pale += 1
+        for block in range((w + 7) // 8):
+            x_from, x_to = 8 * block, min(8 * block + 8, w)
+            if block < range_words.shape[1] and range_words[y, block] == 0:
+                if not (use_fg and own_motion_range):
+                    continue  # nothing in range: nothing to write
+                cells = 0
+                for fx in range(fg_cols[x_from], fg_cols[x_to - 1] + 1):  # (fg_cols rises: every cell these pixels read)
+                    cells |= foreground[fy, fx]
+                if not cells:
+                    continue  # nothing in range, nothing moves
+            for x in range(x_from, x_to):
+                inside = in_range[y, x]
+                p = 0
+                if inside and use_table:
+                    p = table[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP]
+                    soft[y, x] = p
+                    mask[y, x] = 1 if p > 127 else 0
+                if use_fg and (own_motion_range or inside):
+                    fx = fg_cols[x]
+                    moves = foreground[fy, fx] != 0
+                    if moves and own_motion_range:
+                        moves = _in_bounds(hsv[y, x, 0], hsv[y, x, 1], hsv[y, x, 2], motion_range)
+                    if moves and use_behind and inside:
+                        hue, sat = _hue_sat(behind[fy, fx, 0], behind[fy, fx, 1], behind[fy, fx, 2])
+                        was = table[hue // HUE_STEP, sat // SAT_STEP]
+                        thing = use_things and things[hsv[y, x, 0] // HUE_STEP, hsv[y, x, 1] // SAT_STEP] != 0
+                        moves = p >= was and (p > 127 or was > 0 or not thing)
+                    moving[y, x] = 1 if moves else 0
+                    if moves and not inside:
+                        pale += 1
     return pale
 
 

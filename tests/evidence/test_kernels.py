@@ -325,7 +325,7 @@ def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     """What the streak check needs to know before it labels anything (gather._streaks_only runs only when some are)."""
     from stereotrack.config import Target
     from stereotrack.evidence.colour import range_bounds, streak_range, target_mask
-    from stereotrack.evidence.gather import _NO_HSV, _NO_TABLE, _nearest
+    from stereotrack.evidence.gather import _NO_HSV, _NO_TABLE, _nearest, words
 
     rng = np.random.default_rng(17)
     hsv = _scene(rng)
@@ -336,7 +336,7 @@ def test_the_evidence_pass_counts_the_moving_pixels_out_of_the_range():
     rows = np.ones(121, np.uint8)
     pale = evidence_kernels.evidence_maps(
         in_range, rows, hsv, _NO_TABLE, foreground, _nearest(60, 121), _nearest(81, 163), range_bounds(streak_range(target)),
-        _NO_TABLE, _NO_TABLE, moving, _NO_HSV, _NO_TABLE,
+        _NO_TABLE, _NO_TABLE, moving, _NO_HSV, _NO_TABLE, words(in_range),
     )  # fmt: skip
     out_of_range = cv2.countNonZero(cv2.subtract(moving, in_range))
     assert 0 < out_of_range < cv2.countNonZero(moving)
