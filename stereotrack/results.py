@@ -139,10 +139,14 @@ class TrackedBalls:
 
     def of(self, target: str) -> TrackedBalls:
         """The balls of one target."""
+        if all(t == target for t in self.targets):  # (``where`` of every ball: these balls; one colour, most scenes)
+            return self
         return self.where(np.array([t == target for t in self.targets], dtype=bool))
 
     def others(self, target: str) -> TrackedBalls:
         """The balls of every other target."""
+        if all(t != target for t in self.targets):
+            return self
         return self.where(np.array([t != target for t in self.targets], dtype=bool))
 
 

@@ -18,6 +18,7 @@ running average.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -275,8 +276,9 @@ def disc_mask(shape: tuple[int, int], centres_uv: np.ndarray, radii_px: np.ndarr
     """uint8 H x W, 255 inside the discs (radius x ``scale``) drawn at these pixel centres."""
     h, w = shape
     out = np.zeros((h, w), np.uint8)
-    for (u, v), r in zip(centres_uv, radii_px):
-        if np.isfinite(u) and np.isfinite(v) and -w < u < 2 * w and -h < v < 2 * h and 0 < r < w:
+    # as Python floats (the callers' float64 values): numpy scalars cost a microsecond a test
+    for (u, v), r in zip(np.asarray(centres_uv).tolist(), np.asarray(radii_px).tolist()):
+        if math.isfinite(u) and math.isfinite(v) and -w < u < 2 * w and -h < v < 2 * h and 0 < r < w:
             cv2.circle(out, (int(round(u)), int(round(v))), max(1, int(r * scale)), 255, -1)
     return out
 

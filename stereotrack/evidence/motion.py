@@ -21,6 +21,7 @@ ball's first position fades within a few frames, before a track confirms.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import cv2
@@ -380,9 +381,9 @@ class BackgroundModel:
                     if name in self.rim_checked and ok and not g and np.isfinite(u) and np.isfinite(v):
                         others = discs[every.track_ids != k]
                         self._unveil(small, u / SCALE, v / SCALE, radius, self.rim_checked[name], others)
-            for (u, v), ok, radius, g in zip(uv, front, r, ghost):
+            for (u, v), ok, radius, g in zip(uv.tolist(), front.tolist(), r.tolist(), ghost.tolist()):  # (as Python scalars)
                 if ok and not g and -w < u < 2 * w and -h < v < 2 * h and radius < w:  # near the image (also not NaN)
-                    cv2.circle(learn, (int(round(u / SCALE)), int(round(v / SCALE))), int(np.ceil(radius)) + 1, 0, -1)
+                    cv2.circle(learn, (round(u / SCALE), round(v / SCALE)), math.ceil(radius) + 1, 0, -1)
         moving = np.empty(learn.shape, np.uint8)
         if self.behind is None:
             self.behind = np.empty(self._background.shape, np.uint8)

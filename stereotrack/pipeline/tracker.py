@@ -184,7 +184,7 @@ class Tracker:
             # Nothing is still in a background's first frame (it is the background): nothing is judged there
             if t.name in self.surfaces and all(bg.compared for bg in self.backgrounds):
                 kept_objects, into = self._off_surfaces(kept_objects, into, views[t.name], pair.images, balls.of(t.name), now)
-            remap = np.r_[np.where(into >= 0, into + len(objects), -1), -1]  # the last entry maps label -1
+            remap = np.append(np.where(into >= 0, into + len(objects), -1), -1)  # the last entry maps label -1
             objects.extend(kept_objects)
             particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))
         t4 = time.perf_counter()
