@@ -280,6 +280,50 @@ def hs_histograms(hsv, step, in_range, discs, foreground, off_ball):
 
 
 @kernel
+def refuse_moving_things(on_ball, rest, moved, moving, background, spread, moved_share, wall_count, refused):
+    """colour_model.ColourModel.learn's SPREAD and ELSEWHERE tests on this frame's histograms (H_BINS x S_BINS float32),
+    in one pass where its numpy version made a dozen temporaries: a colour bin moves where the room's ``moving`` share of
+    it is over ``moved_share`` x its ``background`` share; the cores' colours (``on_ball``) of a moving thing (``spread``
+    x the cores' count under the room's, ``rest``) are refused (set to 0 in ``on_ball``) where the room holds fewer than
+    ``wall_count`` (WALL x the room's pixels, float32 as numpy gives it) of them, and ``refused`` marks, where the cores
+    showed a colour, whether it was refused as a hand's: more of it moved off the discs (``moved``) than lies on the cores,
+    and more than of the cores' main colour (the first largest of the cores' counts outside the moving things'). Every
+    product and comparison in float32, as numpy computes them on float32 arrays with Python scalars."""
+    h, w = on_ball.shape
+    spread32, share32 = np.float32(spread), np.float32(moved_share)
+    best, bi, bj, own_any = np.float32(0.0), 0, 0, False
+    for i in range(h):  # the cores' main colour: argmax of the counts with the moving things' set to 0 (first in C order)
+        for j in range(w):
+            moves = moving[i, j] > share32 * background[i, j]
+            own = np.float32(0.0) if (spread32 * on_ball[i, j] < rest[i, j]) and moves else on_ball[i, j]
+            if own != 0:
+                own_any = True
+            if own > best or (i == 0 and j == 0):
+                best, bi, bj = own, i, j
+    main = moved[bi, bj]
+    for i in range(h):
+        for j in range(w):
+            moves = moving[i, j] > share32 * background[i, j]
+            refuse = (spread32 * on_ball[i, j] < rest[i, j]) and moves and rest[i, j] < wall_count
+            if on_ball[i, j] > 0:
+                refused[i, j] = refuse and moved[i, j] > on_ball[i, j] and (not own_any or moved[i, j] > main)
+            if refuse:
+                on_ball[i, j] = 0
+
+
+@kernel
+def blended(old, hist, total, rate):
+    """``(1 - rate) x old + rate x hist / total`` (float32 arrays, ``total`` and ``rate`` Python floats): the colour
+    model's running averages of a normalised histogram, in float32 as numpy computes them (each scalar made float32)."""
+    out = np.empty(old.shape, np.float32)
+    keep, take, divisor = np.float32(1 - rate), np.float32(rate), np.float32(total)
+    for i in range(old.shape[0]):
+        for j in range(old.shape[1]):
+            out[i, j] = keep * old[i, j] + take * (hist[i, j] / divisor)
+    return out
+
+
+@kernel
 def frame_gain(image, background, step, scale):
     """Per channel (float32 x 3), what ``image`` must be multiplied by to match ``background`` (its 1 / ``scale``
     grid, float32) where the room did not change: the median of background / image over every ``step``-th
