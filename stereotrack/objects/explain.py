@@ -136,7 +136,8 @@ def _signatures(positions: np.ndarray, cameras, blobs, radius) -> tuple[np.ndarr
 
 def _rank(objects: Sequence[Object3D], log_ratio: np.ndarray, settings: ExplainSettings, predicted: np.ndarray | None) -> np.ndarray:
     """mass x size consistency, with a bonus where a confirmed track predicts a ball."""
-    consistency = np.exp(-0.5 * np.nansum((log_ratio / SIZE_TOLERANCE) ** 2, axis=1))
+    squares = (log_ratio / SIZE_TOLERANCE) ** 2
+    consistency = np.exp(-0.5 * np.where(np.isnan(squares), 0.0, squares).sum(axis=1))  # (np.nansum, without its copies)
     score = np.array([o.mass for o in objects]) * np.maximum(consistency, 1e-3)
     if predicted is not None and len(predicted):
         pos = np.array([o.position for o in objects])
