@@ -203,7 +203,61 @@ def explain(
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
         swept = _swept(views, predicted, settings.radius, settings.short_streaks)
         out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, views, settings, predicted, swept)
-    return out, into
+    return _pieces_joined(out, into, blob_ids[kept], score[kept], cameras, blobs, settings.radius)
+
+
+# Two blobs of their own are pieces of one ball when their centroids lie closer than this many of its apparent radii: a
+# ball's halves cut apart by a band a third of its radius wide lie 1.1 radii apart, two balls' blobs two or more.
+PIECES_APART = 1.5
+PIECES_FILL = 1.5  # (a ball's moving blob is of the background's 2 x 2 cells and its rim's spread: more than its disc)
+
+
+def _pieces_joined(objects: list[Object3D], into: np.ndarray, blob_ids: np.ndarray, score: np.ndarray, cameras, blobs, radius: float):
+    """Kept objects whose blobs are pieces of one ball, joined into one (``objects`` and ``into`` as ``explain`` returns
+    them, ``blob_ids`` and ``score`` theirs). Two balls' blobs of their own lie a disc or more apart (a ball in front of
+    another makes one blob of both); two blobs whose centroids lie within PIECES_APART of the stronger object's apparent
+    radius of each other in every camera that sees both, two cameras or more, are one ball cut in pieces (a white ball's band whose
+    shade is the wall's, white_ball tune seeds 91, 223, 233: two tracks on one ball). The joined ball lies between the
+    two, weighted by their blobs' areas, as the centroid of their union would put it."""
+    k = len(objects)
+    if k < 2:
+        return objects, into
+    centres = np.full((k, len(cameras), 2), np.nan)
+    areas = np.zeros((k, len(cameras)))
+    radius_px = np.full((k, len(cameras)), np.nan)
+    positions = np.array([o.position for o in objects])
+    for j, (cam, b) in enumerate(zip(cameras, blobs)):
+        seen = blob_ids[:, j] >= 0
+        centres[seen, j] = b.centres[blob_ids[seen, j]]
+        areas[seen, j] = b.areas[blob_ids[seen, j]]
+        _, front, z = cam.view(positions)
+        radius_px[front, j] = cam.apparent_radius(radius, z[front])
+    # [a, b]: seen by both in two cameras or more, and in every one their blobs' centroids (one blob, in some: a piece's
+    # ghost pairing with the other piece) lie within PIECES_APART of a's apparent radius and their blobs together cover
+    # no more than PIECES_FILL of its disc (a ball and a thing nearer or farther on nearly the same lines of sight, 0.3 m
+    # apart, lie as near in both views: static_props tune seed 36)
+    both = ~np.isnan(centres[:, None, :, 0]) & ~np.isnan(centres[None, :, :, 0]) & ~np.isnan(radius_px[:, None])
+    near = np.linalg.norm(centres[:, None] - centres[None], axis=3) < PIECES_APART * radius_px[:, None]
+    union = np.where(blob_ids[:, None] == blob_ids[None], areas[:, None], areas[:, None] + areas[None])
+    small = union <= PIECES_FILL * np.pi * radius_px[:, None] ** 2
+    pieces = (both.sum(axis=2) >= 2) & (~both | (near & small)).all(axis=2)
+    np.fill_diagonal(pieces, False)
+    joined = np.arange(k)  # the object each one is a piece of (itself: none)
+    for a in np.argsort(-score, kind="stable"):  # the stronger object takes the pieces
+        if joined[a] == a:
+            joined[pieces[a] & (joined == np.arange(k))] = a
+    if (joined == np.arange(k)).all():
+        return objects, into
+    out, number = [], np.full(k, -1)
+    for a in range(k):
+        if joined[a] != a:
+            continue
+        members = np.flatnonzero(joined == a)
+        w = areas[members].sum(axis=1) / areas[members].sum()
+        number[a] = len(out)
+        out.append(replace(objects[a], position=w @ positions[members]) if len(members) > 1 else objects[a])
+    renumber = np.append(number[joined], -1)  # the last entry maps -1 (dropped)
+    return out, renumber[into]
 
 
 def _depth_along_ray(o, d, particle_depth: float, along_var: float, predicted, radius: float) -> float:

@@ -331,3 +331,41 @@ def test_a_small_blur_is_one_wherever_it_falls_on_the_blob_finders_grid():
         kept, _ = explain([obj(off, ray, 0.06)], views, ExplainSettings(radius=RADIUS))
         assert len(kept) == 1 and kept[0].swept, height
         assert np.linalg.norm(kept[0].position - ball) < 0.1, (height, kept[0].position)
+
+
+def test_a_ball_cut_in_two_pieces_in_every_view_is_one_ball_and_two_touching_balls_stay_two():
+    """A white ball whose band of the wall's shade shows nothing is two blobs in each view, its lit top and its shaded
+    bottom; each pair triangulates to an object of its own, each explains blobs no other does, and both were kept: two
+    tracks on one ball (white_ball tune seeds 91, 223, 233). Two balls' blobs of their own lie a disc or more apart;
+    pieces of one ball lie within 1.5 of its radii of each other in every view and cover no more than its disc: they
+    are one ball, between the two. A ball and a post beside it, and two balls that touch, stay two."""
+    rig = default_rig()
+    ball = np.array([0.0, 1.5, 0.0])
+    masks, _ = disc_masks(rig, ball[None])
+    pieces = []
+    for cam, m in zip(rig.cameras, masks):
+        (u, v), _ = cam.project(ball[None])[0][0], None
+        m[int(v) - 2 : int(v) + 3] = 0  # the band across the ball's middle
+        pieces.append([(u, v - 6), (u, v + 6)])  # about where each piece's centroid falls
+    views = evidence(rig, masks)
+    assert all(len(view.blobs) == 2 for view in views)
+    top, bottom = (rig.triangulate([p[k] for p in pieces]) for k in (0, 1))
+    kept, into = explain([obj(top, mass=0.3), obj(bottom)], views, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 1 and list(into) == [0, 0]
+    assert np.linalg.norm(kept[0].position - ball) < 0.01
+    # a ball and a thing of its colour beside it in both views (a post behind it): near, but more than one ball's disc
+    masks, _ = disc_masks(rig, ball[None])
+    posts = []
+    for cam, m in zip(rig.cameras, masks):
+        (u, v) = cam.project(ball[None])[0][0]
+        r = cam.apparent_radius(RADIUS, cam.depth(ball[None]))[0]
+        m[int(v - 4 * r) : int(v + 4 * r), int(u + r + 3) : int(u + 1.3 * r + 3)] = 1  # its centroid 1.4 radii off the ball's
+        posts.append((u + 1.15 * r + 3, v))
+    views = evidence(rig, masks)
+    assert all(len(view.blobs) == 2 for view in views)
+    kept, _ = explain([obj(ball, mass=0.3), obj(rig.triangulate(posts))], views, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 2
+    touching = np.array([[-RADIUS, 1.5, 0.0], [RADIUS, 1.5, 0.0]])  # side by side, one diameter apart
+    masks, _ = disc_masks(rig, touching, radius=0.9 * RADIUS)  # (drawn a little smaller: two blobs, not one)
+    kept, into = explain([obj(p) for p in touching], evidence(rig, masks), ExplainSettings(radius=RADIUS))
+    assert len(kept) == 2 and list(into) == [0, 1]
