@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import prange
 
 from ..kernels import _sqdist, kernel, project_points
 
@@ -345,7 +346,7 @@ def _capsule(integral, u, v, r, length, ex, ey, core, scale):
     return core * sides * (1.0 - corners) * (1.0 - second)
 
 
-@kernel
+@kernel(parallel=True)
 def ball_shape_likelihood(
     out,
     positions,
@@ -386,7 +387,7 @@ def ball_shape_likelihood(
     cut = hidden_by_balls(eye, positions, occ_centres, occ_radii, radius)  # a disc a nearer ball cuts is no test of shape
     f = 0.5 * (K[0, 0] + K[1, 1])
     h, w = colour.shape[0] - 1, colour.shape[1] - 1
-    for i in range(positions.shape[0]):
+    for i in prange(positions.shape[0]):  # each particle on its own: split over the cores, the same products
         if hidden[i]:
             continue
         u, v = uv[i, 0], uv[i, 1]
