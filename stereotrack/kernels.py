@@ -29,7 +29,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-from numba import njit
+
+# A parallel kernel's OpenMP threads sleep when it ends instead of spinning for a while: spinning took the step's CPU
+# time from 8 to 13 ms a frame at 640x480 (the cores the cameras' evidence threads and the capture need) for a few
+# tenths of the step / floor ratio (BENCHMARKS.md). Read when numba first loads OpenMP, so set before any kernel runs;
+# a user's own setting wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+from numba import njit  # noqa: E402 (after the OpenMP setting above)
 
 KERNELS: list = []  # every kernel of the package called from Python (the warm-up must compile each: tests/test_kernels.py)
 
