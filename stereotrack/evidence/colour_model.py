@@ -102,11 +102,6 @@ def _normalised(hist: np.ndarray) -> np.ndarray:
     return (hist / total).astype(np.float32) if total > 0 else np.full(hist.shape, 1.0 / hist.size, np.float32)
 
 
-def _averaged(average: np.ndarray, new: np.ndarray, rate: float) -> np.ndarray:
-    """The running average after one more frame (kernels.blended computes it for float32 histograms)."""
-    return (1 - rate) * average + rate * new
-
-
 def box_histogram(target: Target) -> np.ndarray:
     """Uniform over the hue and saturation bins the target's HSV range covers: the ball's colours before any is seen."""
     hue = np.arange(H_BINS) * 180 // H_BINS + 180 // H_BINS // 2
@@ -138,6 +133,13 @@ class ColourModel:
     moving: np.ndarray | None = None  # H_BINS x S_BINS, with ``spread``: the share of the view the room's moving pixels of each colour are
     first: np.ndarray | None = None  # the ball's first histogram (``prior`` of ``ball`` is still it); None: ``ball`` as given
     refused: np.ndarray | None = None  # H_BINS x S_BINS bool: the cores showed it, last refused as a hand's (ELSEWHERE)
+
+    def __post_init__(self):
+        # float32, as OpenCV's histograms are: ``learn``'s compiled passes take them so (and compute as numpy did on them)
+        for name in ("ball", "background", "moving", "first"):
+            value = getattr(self, name)
+            if value is not None and value.dtype != np.float32:
+                setattr(self, name, np.asarray(value, np.float32))
 
     @classmethod
     def for_target(cls, target: Target, learnt: np.ndarray | None = None, rate: float = 0.05) -> ColourModel:
@@ -214,42 +216,24 @@ class ColourModel:
             off_ball = disc_mask(grid, np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP, OFF_BALL)
         on_ball, rest, moved = hs_histograms(hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball)
         room = rest.sum()  # (numpy's float32 sum, as every use of it below had it)
-        # Compiled where every histogram is float32 (always, but for models a caller built of other arrays): the numpy
-        # version made a dozen temporaries of 45 x 32 bins for these few lines, a tenth of a millisecond a frame.
-        fast = all(a is None or a.dtype == np.float32 for a in (self.ball, self.background, self.moving))
-        if self.spread and self.moving is not None and self.background is not None:  # _moves: SPREAD and ELSEWHERE
+        # Compiled passes over the float32 histograms (kernels.refuse_moving_things, blended): the numpy version made a
+        # dozen temporaries of 45 x 32 bins for these few lines, a tenth of a millisecond a frame.
+        if self.spread and self.moving is not None and self.background is not None:  # SPREAD and ELSEWHERE (_moves)
             if self.refused is None:
                 self.refused = np.zeros(on_ball.shape, bool)
-            if fast:  # the lines below in one pass (kernels.refuse_moving_things)
-                refuse_moving_things(on_ball, rest, moved, self.moving, self.background, self.spread, MOVED, WALL * room, self.refused)
-            else:  # a moving thing's colour, not a wall's, nor a still prop's
-                spread_moving = (self.spread * on_ball < rest) & self._moves()
-                refuse = spread_moving & (rest < WALL * room)
-                shown = on_ball > 0
-                hands = refuse & (moved > on_ball)  # ELSEWHERE: more of it moved off the discs than lies on the cores ...
-                own = np.where(spread_moving, 0, on_ball)  # ... and more than of the
-                if own.any():  # balls' main colour this frame (the most of the cores' colours that no moving thing shares)
-                    hands &= moved > moved[np.unravel_index(np.argmax(own), own.shape)]
-                self.refused[shown] = hands[shown]
-                on_ball[refuse] = 0
+            refuse_moving_things(on_ball, rest, moved, self.moving, self.background, self.spread, MOVED, WALL * room, self.refused)
         if on_ball.any():
-            total = float(on_ball.sum())
-            self.ball = blended(self.ball, on_ball, total, self.rate) if fast else _averaged(self.ball, _normalised(on_ball), self.rate)
+            self.ball = blended(self.ball, on_ball, float(on_ball.sum()), self.rate)
             self.prior *= 1 - self.rate
         if self.background is None:
             self.background = _normalised(rest)
-        elif fast and room > 0:
+        elif room > 0:
             self.background = blended(self.background, rest, float(room), self.rate)
-        else:
-            self.background = _averaged(self.background, _normalised(rest), self.rate)
+        else:  # an empty view: the uniform histogram
+            self.background = (1 - self.rate) * self.background + self.rate * _normalised(rest)
         if learn_moving:
             divisor = max(float(room), 1.0)
-            if self.moving is None:
-                self.moving = moved / divisor
-            else:
-                self.moving = (
-                    blended(self.moving, moved, divisor, self.rate) if fast else _averaged(self.moving, moved / divisor, self.rate)
-                )
+            self.moving = moved / divisor if self.moving is None else blended(self.moving, moved, divisor, self.rate)
 
     # ----------------------------------------------------------------- file
 
