@@ -63,6 +63,13 @@ SPREAD = 10.0
 # tune seed 20: its curtain 19 per cent of the view, 330 times the cores; 0.658 -> -0.283 with SPREAD alone).
 # Hands hold at most 4 per cent of the view in range (hands tune seeds 0-39), a hand's skin per bin 1 per cent.
 WALL = 0.02
+# ... unless its pixels move as a thing's do: more than THING_MOVES of them, on average. A juggler near the camera holds
+# 2-3 per cent of the view in one skin colour (face, arms), and it moves at 0.28-0.30 of its pixels; taken for a wall's,
+# it was taught from the held ball's core until it was a quarter of the ball's histogram, and the face and arms were
+# balls (hands tune seed 110: -0.29; 0.93 with it). A wall of the ball's hue moves at 0.01-0.09 (what passes before it).
+# Hands tune seeds 0-159: +1.53 (110, and 116 0.61 -> 0.92); hue_wall and static_props 0-159 and five more categories
+# 0-39 as before, to the digit.
+THING_MOVES = 0.15
 # The colours of things of the room that move (hands, arms), what evidence_maps (evidence/kernels.py) takes a hand's
 # colour for: those more than MOVED of whose pixels in the room move, on average (the running share of the view, off
 # the balls' discs at OFF_BALL radii: a ball's rim and blur are its own), over at least THING of the view (rarer
@@ -180,7 +187,8 @@ class ColourModel:
         moves = self._moves()
         if moves is None:
             return None
-        return (moves & (self.background >= THING) & (self.background < WALL)).astype(np.uint8)
+        wall = (self.background >= WALL) & ~(self.moving > THING_MOVES * self.background)
+        return (moves & (self.background >= THING) & ~wall).astype(np.uint8)
 
     def _moves(self) -> np.ndarray | None:
         """Per colour bin: more than MOVED of the room's pixels of it move (None without ``spread`` or before anything
@@ -221,7 +229,9 @@ class ColourModel:
         if self.spread and self.moving is not None and self.background is not None:  # SPREAD and ELSEWHERE (_moves)
             if self.refused is None:
                 self.refused = np.zeros(on_ball.shape, bool)
-            refuse_moving_things(on_ball, rest, moved, self.moving, self.background, self.spread, MOVED, WALL * room, self.refused)
+            refuse_moving_things(
+                on_ball, rest, moved, self.moving, self.background, self.spread, MOVED, WALL * room, THING_MOVES, self.refused
+            )
         if on_ball.any():
             self.ball = blended(self.ball, on_ball, float(on_ball.sum()), self.rate)
             self.prior *= 1 - self.rate

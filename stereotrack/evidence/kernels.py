@@ -280,17 +280,18 @@ def hs_histograms(hsv, step, in_range, discs, foreground, off_ball):
 
 
 @kernel
-def refuse_moving_things(on_ball, rest, moved, moving, background, spread, moved_share, wall_count, refused):
+def refuse_moving_things(on_ball, rest, moved, moving, background, spread, moved_share, wall_count, thing_share, refused):
     """colour_model.ColourModel.learn's SPREAD and ELSEWHERE tests on this frame's histograms (H_BINS x S_BINS float32),
     in one pass where its numpy version made a dozen temporaries: a colour bin moves where the room's ``moving`` share of
     it is over ``moved_share`` x its ``background`` share; the cores' colours (``on_ball``) of a moving thing (``spread``
     x the cores' count under the room's, ``rest``) are refused (set to 0 in ``on_ball``) where the room holds fewer than
-    ``wall_count`` (WALL x the room's pixels, float32 as numpy gives it) of them, and ``refused`` marks, where the cores
+    ``wall_count`` (WALL x the room's pixels, float32 as numpy gives it) of them, or its ``moving`` share is over
+    ``thing_share`` x its ``background`` share (THING_MOVES: a wall's colour does not move so), and ``refused`` marks, where the cores
     showed a colour, whether it was refused as a hand's: more of it moved off the discs (``moved``) than lies on the cores,
     and more than of the cores' main colour (the first largest of the cores' counts outside the moving things'). Every
     product and comparison in float32, as numpy computes them on float32 arrays with Python scalars."""
     h, w = on_ball.shape
-    spread32, share32 = np.float32(spread), np.float32(moved_share)
+    spread32, share32, thing32 = np.float32(spread), np.float32(moved_share), np.float32(thing_share)
     best, bi, bj, own_any = np.float32(0.0), 0, 0, False
     for i in range(h):  # the cores' main colour: argmax of the counts with the moving things' set to 0 (first in C order)
         for j in range(w):
@@ -304,7 +305,8 @@ def refuse_moving_things(on_ball, rest, moved, moving, background, spread, moved
     for i in range(h):
         for j in range(w):
             moves = moving[i, j] > share32 * background[i, j]
-            refuse = (spread32 * on_ball[i, j] < rest[i, j]) and moves and rest[i, j] < wall_count
+            wall = rest[i, j] >= wall_count and not moving[i, j] > thing32 * background[i, j]
+            refuse = (spread32 * on_ball[i, j] < rest[i, j]) and moves and not wall
             if on_ball[i, j] > 0:
                 refused[i, j] = refuse and moved[i, j] > on_ball[i, j] and (not own_any or moved[i, j] > main)
             if refuse:

@@ -329,3 +329,43 @@ def test_a_moving_balls_own_colour_is_never_withdrawn(half, lit):
     assert model.moving_things()[16 // 4, 200 // 8]  # a moving thing's colour, refused as the ball's (SPREAD) ...
     assert model.ball[16 // 4, 200 // 8] < model.first[16 // 4, 200 // 8]
     assert model.probability(hsv)[HELD[1], HELD[0]] > 127  # ... but the ball's own: it keeps its p (withdrawn: 0)
+
+
+def test_skin_over_a_walls_share_of_the_view_is_a_things_while_it_moves_as_things_do(monkeypatch):
+    """A juggler near the camera: one skin colour (face, arms, hands) over WALL of the view, and a wall's share alone
+    took it for a wall's and taught it from the held ball's core (hands tune seed 110: a quarter of the ball's histogram,
+    and the face and arms were balls). It moves as things do (THING_MOVES: skin 0.28-0.30 of its pixels; a wall of the
+    ball's hue 0.01-0.09, what passes before it), so it is refused as a small hand's is; that wall is still taught."""
+    import stereotrack.evidence.colour_model as colour_model
+
+    hsv, orange, in_range = _held_ball()
+    cv2.rectangle(hsv, (30, 20), (180, 150), (8, 110, 120), -1)  # a face and arms of the hand's skin: 8 per cent in all
+    moving = np.zeros((240, 320), np.uint8)  # motion.py's grid
+    moving[75:120, 105:125] = 1  # the hand moves (its lower part, off the ball) ...
+    moving[50:75, 15:90] = 1  # ... and the arms: a third of the skin in all
+
+    def taught():
+        model = ColourModel.for_target(orange)
+        for _ in range(30):
+            model.learn(hsv, in_range, np.array([[250.0, 165.0]]), np.array([18.0]), moving)  # the track half in the hand
+        return model.probability(hsv) / 255.0
+
+    p = taught()
+    assert p[200, 230] < 0.5 and p[60, 100] < 0.5  # the hand and the face: out of the mask
+    assert p[145, 265] > 0.9  # the ball
+    monkeypatch.setattr(colour_model, "THING_MOVES", 1e9)  # a wall's share of the view alone makes a wall's colour
+    assert taught()[60, 100] > 0.5
+
+
+def test_a_wall_of_the_balls_colour_that_something_passes_before_is_still_taught():
+    """THING_MOVES: a wall of the ball's hue over a fifth of the view, a twentieth of it moving (someone walks before it)."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (0, 0, 120)
+    hsv[:, :200] = BALL_HSV
+    cv2.circle(hsv, (400, 240), 18, BALL_HSV, -1)
+    moving = np.zeros((240, 320), np.uint8)
+    moving[100:140, 20:60] = 1  # 1600 of the wall's 24000 cells on this grid
+    model = ColourModel.for_target(PINK)
+    for _ in range(30):
+        model.learn(hsv, target_mask(hsv, PINK), np.array([[400.0, 240.0]]), np.array([18.0]), moving)
+    assert model.probability(hsv)[240, 400] / 255.0 > 0.5
