@@ -1,4 +1,4 @@
-"""Is a still object a patch of a surface (a book's end, a poster's corner), not a ball before it?
+"""Is a still object a patch of a surface (a book's end, a poster's corner), not a ball before it? Does it show as a ball at all?
 
 A ball's outline is a depth edge all round: what shows just outside its disc lies behind it (or in front), at another
 depth. A patch of a surface of the ball's colour is bounded by the same surface, or by things on it: what shows just
@@ -18,6 +18,7 @@ import numpy as np
 from ..camera import Camera
 from ..evidence.colour import box_counts
 from ..evidence.gather import CameraEvidence
+from .shapes import ROUND_FILL, ROUND_MIN_PX
 
 RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
 RING_MARGIN_PX = (2.0, 4.0)  # ... at least this far outside the disc, and this wide: clear of its blurred edge
@@ -42,6 +43,18 @@ SURFACE_RATIO_BOTH = 1.5
 # it is, and judging costs a few hundred samples per depth searched; judged again after it, in case the first was wrong
 VERDICT_SECONDS = 0.5
 SAME_SPOT = 0.5
+# A ball at rest shows as one (``ball_shaped``): in some view its blob fills ROUND_FILL to ROUND_FILL_MAX of the disc its
+# larger side spans (a square fills 4 / pi), its second-moment axes no flatter than ROUND_AXES, and it is the size a ball
+# is at its depth, to ROUND_SIZE (a log ratio: a quarter) or SIZE_PX. Still balls (static_props tune seeds 40-99, 999
+# object-frames): fill 0.88-1.04, axes 0.89-0.99, size -0.02-0.13 (1st-99th percentiles), every one shaped so; still
+# things that were no ball (423): 78 per cent were not (a bottle on a table, a flag, a sign a third larger than a ball at
+# the depth its two views give it). A ball at rest before things of its colour merges with them and is lost (hue_wall
+# tune seeds 90, 106, 154; static_props 13): a size of 0.4 kept those and lost half the gain (static_props 0-159 +3.01
+# against +5.27, hue_wall +2.31 against +3.00), and letting a blob twice a ball's size say nothing +2.70 on hue_wall.
+ROUND_FILL_MAX = 1.15
+ROUND_AXES = 0.7
+ROUND_SIZE = 0.25
+SIZE_PX = 0.75  # a few pixels' ball: its blob's half side is quantised to half a pixel
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
 
@@ -122,6 +135,35 @@ def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], i
     return bool((np.nan_to_num(back) >= SURFACE_RATIO_BOTH).all())
 
 
+def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
+    """Does a ball at ``position`` show as one in some view: the blob nearest its centre (within its apparent radius)
+    a whole disc of the size a ball has at that depth? A ball of fewer than ROUND_MIN_PX pixels is judged by its size
+    alone (its fill and axes say nothing)."""
+    for v in views:
+        b = v.blobs
+        if not len(b.centres):
+            continue
+        uv, front, z = v.camera.view(np.asarray(position, float)[None])
+        if not front[0] or not np.isfinite(uv).all():
+            continue
+        r = float(v.camera.apparent_radius(radius, z[0]))
+        gaps = np.hypot(*(b.centres - uv[0]).T)
+        k = int(np.argmin(gaps))
+        if gaps[k] > max(r, 2.0):
+            continue
+        side = max(float(b.radii[k]), 0.5)  # half the blob's larger side
+        sized = abs(np.log(side / max(r, 0.5))) < ROUND_SIZE or abs(side - r) <= SIZE_PX
+        if r < ROUND_MIN_PX:
+            if sized:
+                return True
+            continue
+        fill = b.areas[k] / (np.pi * side**2)
+        axes = 1.0 if b.axes is None else b.axes[k][1] / max(b.axes[k][0], 1e-6)
+        if sized and ROUND_FILL <= fill <= ROUND_FILL_MAX and axes >= ROUND_AXES:
+            return True
+    return False
+
+
 def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
     """Is no pixel of the moving map in the box of a ball's disc at ``position`` in any view? (False without motion.)"""
     for v in views:
@@ -139,11 +181,13 @@ def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) 
 
 class SurfacePatches:
     """One target's still objects judged patches of a surface or not (``on_surface``), each verdict remembered for
-    VERDICT_SECONDS while an object stays at its spot: a stage object the tracker keeps, one per target."""
+    VERDICT_SECONDS while an object stays at its spot, and, with ``shapes``, whether they show as a ball at all
+    (``ball_shaped``): a stage object the tracker keeps, one per target."""
 
-    def __init__(self, radius: float, cameras: Sequence[Camera]):
+    def __init__(self, radius: float, cameras: Sequence[Camera], shapes: bool = True):
         self.radius = radius
         self.cameras = tuple(cameras)
+        self.shapes = shapes
         self.spots = np.zeros((0, 3))  # K x 3: where objects were judged ...
         self.verdicts = np.zeros(0, bool)  # ... on a surface or not ...
         self.times = np.zeros(0)  # ... and when
@@ -151,14 +195,17 @@ class SurfacePatches:
     def drop(
         self, objects: Sequence, views: Sequence[CameraEvidence], images: Sequence[np.ndarray], travelled: np.ndarray, now: float
     ) -> np.ndarray:
-        """Per object: is it a patch of the surface it is seen on? Only an object still in every view (``still``) and
-        two radii or more from every ball that has travelled (``travelled``, B x 3: a ball that moved is no scenery,
-        wherever it came to rest) is judged; the others are not dropped."""
+        """Per object: is it a patch of the surface it is seen on, or (``shapes``) no ball's shape in any view? Only an
+        object still in every view (``still``) and two radii or more from every ball that has travelled (``travelled``,
+        B x 3: a ball that moved is no scenery, wherever it came to rest) is judged; the others are not dropped."""
         fresh = (now - self.times <= VERDICT_SECONDS) & (now >= self.times)
         self.spots, self.verdicts, self.times = self.spots[fresh], self.verdicts[fresh], self.times[fresh]
         out = np.zeros(len(objects), bool)
         for k, o in enumerate(objects):
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
+                continue
+            if self.shapes and not ball_shaped(o.position, self.radius, views):
+                out[k] = True
                 continue
             near = np.flatnonzero(np.linalg.norm(self.spots - o.position, axis=1) < SAME_SPOT * self.radius)
             if len(near):

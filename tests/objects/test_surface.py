@@ -1,10 +1,13 @@
 from types import SimpleNamespace
 
+import cv2
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
+from stereotrack.evidence.blobs import find_blobs
 from stereotrack.evidence.colour import integral_image
-from stereotrack.objects.surface import SURFACE_RATIO, VERDICT_SECONDS, SurfacePatches, on_surface, surface_ratio
+from stereotrack.evidence.gather import CameraEvidence
+from stereotrack.objects.surface import SURFACE_RATIO, VERDICT_SECONDS, SurfacePatches, ball_shaped, on_surface, surface_ratio
 from stereotrack.results import Object3D
 
 WALL_Y = 3.0  # metres ahead of the rig
@@ -62,18 +65,19 @@ def test_an_object_out_of_a_view_is_not_judged():
     assert not on_surface(np.array([5.0, 1.0, 0.0]), RADIUS, rig.cameras, images)
 
 
-def _views(rig, moving_at=None):
-    """Each camera's motion as the surface test reads it: the moving map's summed-area table, empty or with the box of a
-    ball's disc at ``moving_at`` moving."""
+def _views(rig, images, moving_at=None):
+    """Each camera's evidence as the surface test reads it: the blobs of the images' pink, and the moving map's
+    summed-area table, empty or with the box of a ball's disc at ``moving_at`` moving."""
     views = []
-    for cam in rig.cameras:
+    for cam, image in zip(rig.cameras, images):
         moving = np.zeros((cam.height, cam.width), np.uint8)
         if moving_at is not None:
             uv, _, z = cam.view(np.asarray(moving_at, float)[None])
             r = int(cam.apparent_radius(RADIUS, z[0]))
             u, v = (int(c) for c in uv[0])
             moving[v - r : v + r, u - r : u + r] = 1
-        views.append(SimpleNamespace(camera=cam, moving_integral=integral_image(moving)))
+        pink = (image == (180, 105, 255)).all(axis=2).astype(np.uint8)
+        views.append(SimpleNamespace(camera=cam, moving_integral=integral_image(moving), blobs=find_blobs(pink)))
     return views
 
 
@@ -84,15 +88,16 @@ def test_a_still_patch_is_dropped_its_verdict_kept_a_while_and_a_moving_or_trave
     textured, flat = _draw(rig, True, painted=painted[[0, 2]]), _draw(rig, False, painted=painted[[0, 2]])
     nothing_travelled = np.zeros((0, 3))
     patches = SurfacePatches(RADIUS, rig.cameras)
-    assert patches.drop(patch, _views(rig), textured, nothing_travelled, 0.0).tolist() == [True]
+    assert ball_shaped(painted, RADIUS, _views(rig, textured))  # a disc of a ball's size: the surround tells
+    assert patches.drop(patch, _views(rig, textured), textured, nothing_travelled, 0.0).tolist() == [True]
     # Remembered for VERDICT_SECONDS: a flat view (which tells nothing) does not undo it; judged again after
-    assert patches.drop(patch, _views(rig), flat, nothing_travelled, 0.5 * VERDICT_SECONDS).tolist() == [True]
-    assert patches.drop(patch, _views(rig), flat, nothing_travelled, 2.0 * VERDICT_SECONDS).tolist() == [False]
+    assert patches.drop(patch, _views(rig, flat), flat, nothing_travelled, 0.5 * VERDICT_SECONDS).tolist() == [True]
+    assert patches.drop(patch, _views(rig, flat), flat, nothing_travelled, 2.0 * VERDICT_SECONDS).tolist() == [False]
     # Not judged: a ball that has travelled is there (it came to rest on the wall), or the spot moves in a view
     fresh = SurfacePatches(RADIUS, rig.cameras)
-    assert fresh.drop(patch, _views(rig), textured, painted[None] + 0.01, 0.0).tolist() == [False]
-    assert fresh.drop(patch, _views(rig, moving_at=painted), textured, nothing_travelled, 0.0).tolist() == [False]
-    assert fresh.drop(patch, _views(rig), textured, nothing_travelled, 0.0).tolist() == [True]
+    assert fresh.drop(patch, _views(rig, textured), textured, painted[None] + 0.01, 0.0).tolist() == [False]
+    assert fresh.drop(patch, _views(rig, textured, moving_at=painted), textured, nothing_travelled, 0.0).tolist() == [False]
+    assert fresh.drop(patch, _views(rig, textured), textured, nothing_travelled, 0.0).tolist() == [True]
 
 
 def test_a_surround_that_matches_at_the_objects_depth_both_ways_is_a_surface_at_a_lower_margin(monkeypatch):
@@ -106,3 +111,47 @@ def test_a_surround_that_matches_at_the_objects_depth_both_ways_is_a_surface_at_
         monkeypatch.setattr(surface, "surface_ratio", lambda p, r, c, d, *_, f=forth, k=back: f if c is a else k)
         assert on_surface(np.zeros(3), RADIUS, rig.cameras, [None, None]) is verdict, (forth, back)
     assert surface.SURFACE_RATIO_BOTH < SURFACE_RATIO
+
+
+def _shapes_views(rig, at, shape: str, scale: float = 1.0, moving: bool = False):
+    """Each camera's evidence of one pink thing drawn at ``at``'s projection: a disc of ``scale`` times a ball's apparent
+    radius there, or a square or a flat box as wide as that ball; still, or moving all over."""
+    views = []
+    for cam in rig.cameras:
+        uv, _, z = cam.view(np.asarray(at, float)[None])
+        r = float(cam.apparent_radius(RADIUS, z[0]))
+        u, v = (int(round(c)) for c in uv[0])
+        mask = np.zeros((cam.height, cam.width), np.uint8)
+        if shape == "disc":
+            cv2.circle(mask, (u, v), int(round(scale * r)), 1, -1)
+        else:  # a square, or a box as wide and 0.6 as high (a bottle on its side: fills 0.76, axes 0.6)
+            k, h = int(round(r)), int(round(r * (0.6 if shape == "box" else 1.0)))
+            mask[v - h : v + h + 1, u - k : u + k + 1] = 1
+        foreground = np.full((cam.height // 2, cam.width // 2), int(moving), np.uint8)
+        views.append(CameraEvidence.from_mask(cam, mask, foreground=foreground))
+    return views
+
+
+def test_a_still_thing_that_shows_as_no_ball_in_any_view_is_dropped():
+    """A ball at rest shows as one: in some view a whole disc of a ball's size at its depth (``ball_shaped``). A still
+    box (static_props tune seed 74: a bottle on a table) or a blob half as large again as a ball at the depth its views
+    put it (seeds 62, 68) is no ball; one that moves, or sits where a tracked ball came to rest, is not judged."""
+    rig = default_rig()
+    at = np.array([0.1, 1.5, 0.05])
+    patches = SurfacePatches(RADIUS, rig.cameras)
+    flat = _draw(rig, False)  # a grey wall: the surface test tells nothing
+    nothing_travelled = np.zeros((0, 3))
+    thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+    for shape, scale, shaped in [
+        ("disc", 1.0, True),
+        ("disc", 0.9, True),
+        ("disc", 1.5, False),
+        ("square", 1.0, False),
+        ("box", 1.0, False),
+    ]:
+        views = _shapes_views(rig, at, shape, scale)
+        assert ball_shaped(at, RADIUS, views) is shaped, (shape, scale)
+        assert patches.drop(thing, views, flat, nothing_travelled, 0.0).tolist() == [not shaped], (shape, scale)
+    square = _shapes_views(rig, at, "square")
+    assert patches.drop(thing, _shapes_views(rig, at, "square", moving=True), flat, nothing_travelled, 0.0).tolist() == [False]
+    assert patches.drop(thing, square, flat, at[None] + 0.01, 0.0).tolist() == [False]
