@@ -7,7 +7,7 @@ tune on these; seeds 0, 1, 2 ...) and 'report' (what docs/evaluation.md
 shows, never tuned on; seeds 1000000, 1000001 ...). Every scene is rendered once into CACHE/CATEGORY/SEED and reused while
 its spec and the renderer are unchanged; a method's score is reused while
 the package's code is unchanged too, so reruns are cheap and an interrupted
-run resumes. Both methods run as `stereotrack track --method
+run resumes (a run the machine failed, a full disk, is tried again). Both methods run as `stereotrack track --method
 particles|baseline` does, with the target a user would type for the ball
 (its hue +-10, S and V from about 80; a white ball: low S, high V) and every
 other setting at this checkout's default, and are scored like `stereotrack
@@ -340,7 +340,8 @@ def track_and_score(folder: Path, method: str, n_frames: int, tracker_seed: int 
     """``stereotrack track --method METHOD`` on a scene (its own code, in this process), scored like ``stereotrack eval``;
     with a ``tracker_seed``, the scene's config with that ``tracker.seed`` (a copy beside the run, not the scene's own).
 
-    A run that fails is a result too: its error goes in the table instead of stopping the other scenes.
+    A run that fails is a result too: its error goes in the table instead of stopping the other scenes. One the
+    machine failed (an OSError: a full disk, a file another process held) is marked ``retry``: not the code's result.
     """
     from ..evaluate import evaluate
     from ..recording import open_recording, read_truth_and_views
@@ -358,7 +359,8 @@ def track_and_score(folder: Path, method: str, n_frames: int, tracker_seed: int 
             with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
                 track.run(args)
     except Exception as exc:  # noqa: BLE001 (a user error or a tracker bug: both are this scene's result)
-        return {"error": f"{type(exc).__name__}: {exc}", "seconds": time.perf_counter() - start}
+        failed = {"error": f"{type(exc).__name__}: {exc}", "seconds": time.perf_counter() - start}
+        return {**failed, "retry": True} if isinstance(exc, OSError) else failed
     seconds = time.perf_counter() - start
     with warnings.catch_warnings():  # an empty tracks.csv is a result here, not news
         warnings.simplefilter("ignore", UserWarning)
@@ -401,7 +403,8 @@ def run_job(job: Job) -> dict:
                 out["methods"][method] = saved["score"]
                 continue
         score = track_and_score(folder, method, spec.n_frames, job.tracker_seed)
-        write_text_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
+        if not score.pop("retry", False):  # the machine's failure is not kept: the next run tries that scene again
+            write_text_atomic(stamp, json.dumps({"key": key, "score": score}, indent=1))
         out["methods"][method] = score
     return out
 
