@@ -138,9 +138,11 @@ def on_surface(position: np.ndarray, radius: float, cameras: Sequence[Camera], i
 def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
     """Does a ball at ``position`` show as one in some view: the blob nearest its centre (within its apparent radius)
     a whole disc of the size a ball has at that depth? A ball of fewer than ROUND_MIN_PX pixels is judged by its size
-    alone (its fill and axes say nothing)."""
+    alone (its fill and axes say nothing); blobs without an outline (the paper's histogram maxima) say nothing."""
     for v in views:
         b = v.blobs
+        if b.axes is None:  # blob_method 'histogram': an area and a size that are no outline's
+            return True
         if not len(b.centres):
             continue
         uv, front, z = v.camera.view(np.asarray(position, float)[None])
@@ -158,7 +160,7 @@ def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvide
                 return True
             continue
         fill = b.areas[k] / (np.pi * side**2)
-        axes = 1.0 if b.axes is None else b.axes[k][1] / max(b.axes[k][0], 1e-6)
+        axes = b.axes[k][1] / max(b.axes[k][0], 1e-6)
         if sized and ROUND_FILL <= fill <= ROUND_FILL_MAX and axes >= ROUND_AXES:
             return True
     return False
