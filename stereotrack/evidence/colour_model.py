@@ -67,8 +67,8 @@ WALL = 0.02
 # 2-3 per cent of the view in one skin colour (face, arms), and it moves at 0.28-0.30 of its pixels; taken for a wall's,
 # it was taught from the held ball's core until it was a quarter of the ball's histogram, and the face and arms were
 # balls (hands tune seed 110: -0.29; 0.93 with it). A wall of the ball's hue moves at 0.01-0.09 (what passes before it).
-# Hands tune seeds 0-159: +1.53 (110, and 116 0.61 -> 0.92); hue_wall and static_props 0-159 and five more categories
-# 0-39 as before, to the digit.
+# Hands tune seeds 0-159: +1.53 (110, and 116 0.61 -> 0.92); hue_wall, static_props and fast_ball 0-159 and five more
+# categories 0-39 as before, to the digit.
 THING_MOVES = 0.15
 # The colours of things of the room that move (hands, arms), what evidence_maps (evidence/kernels.py) takes a hand's
 # colour for: those more than MOVED of whose pixels in the room move, on average (the running share of the view, off

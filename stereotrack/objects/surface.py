@@ -6,6 +6,9 @@ outside it lies at its own depth. So around a still object, the ring just outsid
 views for surfaces at depths along the viewing ray: when the ring matches best at the object's own depth, and clearly
 better there than at any depth two ball radii (in pixels of disparity) or more away, it is part of the surface it is seen
 on. A uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
+
+Before that, a still object of a coloured ball must show as a ball (``ball_shaped``): in some view its blob a whole disc
+of the size a ball has at the depth the views give it. A bottle, a flag or a sign of the ball's colour is not one.
 """
 
 from __future__ import annotations
