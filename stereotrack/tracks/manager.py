@@ -1,12 +1,10 @@
 """Persistent identities: objects found each frame -> tracks with the same id over time.
 
-Each track is a constant-velocity Kalman filter on (position, velocity), with
-gravity as a known acceleration when the world's up axis is set and the
-ball flies freely (see ``in_free_flight``). Every frame
-the tracks are predicted to the frame's time (dt from timestamps, not frame
-counts), this frame's objects are assigned to them globally (Hungarian,
-``scipy.optimize.linear_sum_assignment``) inside a Mahalanobis gate, and the
-lifecycle moves on:
+Each track is a constant-velocity Kalman filter on (position, velocity), with gravity as a known acceleration when
+the world's up axis is set and the ball flies freely (see ``in_free_flight``), and air drag on a fast ball
+(``motion.fast_flight_model``). Every frame the tracks are predicted to the frame's time (dt from timestamps, not
+frame counts), this frame's objects are assigned to them globally (Hungarian, ``scipy.optimize.linear_sum_assignment``)
+inside a Mahalanobis gate, and the lifecycle moves on:
 
     tentative --(seen for confirm_time s, or 3 frames in a row at confirm_speed)--> confirmed <--> coasting --(unseen for delete_time s)--> deleted
     tentative --(unseen for tentative_time s)--> deleted
@@ -41,7 +39,7 @@ from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import entering, motion_model
+from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model
 from .smoothing import FilterHistory
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
@@ -244,7 +242,10 @@ class TrackManager:
             return tr.x.copy(), tr.P.copy(), np.eye(6)
         if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
             return tr.prediction[3].copy(), tr.prediction[4].copy(), tr.prediction[5]
-        F, Q, b = self._motion_model(dt, tr.in_flight)
+        if tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT:  # thrown, pitched: gravity and drag (motion.FAST_FLIGHT)
+            F, Q, b = fast_flight_model(dt, tr.x[3:], self.settings.fast_accel_noise, self.gravity, self.settings.drag)
+        else:
+            F, Q, b = self._motion_model(dt, tr.in_flight)
         x, P = kalman_predict(tr.x, tr.P, F, Q, b)
         tr.prediction = (time, tr.time, tr.in_flight, x, P, F)
         return x.copy(), P.copy(), F
@@ -253,8 +254,7 @@ class TrackManager:
         """``motion_model`` for this manager, remembered per (dt, in flight): every track of a frame shares dt."""
         key = (dt, in_flight)
         if key not in self._models:
-            if len(self._models) > 16:
-                self._models.clear()
+            self._models = self._models if len(self._models) <= 16 else {}
             self._models[key] = motion_model(dt, self.settings.accel_noise, self.gravity if in_flight else None)
         return self._models[key]
 
