@@ -27,6 +27,26 @@ SIM = ["--width", "320", "--height", "240", "--fps", "30"]
 PATIENT = ["--stall-timeout", "10"]
 
 
+_STARTED: list[subprocess.Popen] = []
+
+
+def start(*args, **kwargs) -> subprocess.Popen:
+    """``subprocess.Popen``, killed after the test if it still runs then (a failed wait left a live run compiling at full CPU)."""
+    proc = subprocess.Popen(*args, **kwargs)
+    _STARTED.append(proc)
+    return proc
+
+
+@pytest.fixture(autouse=True)
+def _no_process_left():
+    yield
+    while _STARTED:
+        proc = _STARTED.pop()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate(timeout=30)
+
+
 def stereotrack(*args) -> list[str]:
     return [sys.executable, "-m", "stereotrack", *args]
 
@@ -94,7 +114,7 @@ def test_sigkill_at_random_moments_leaves_every_row_with_its_frames(tmp_path):
     delays = rng.uniform(0.0, 1.2, 8)
     for k, delay in enumerate(delays):
         out = tmp_path / f"k{k}"
-        proc = subprocess.Popen(
+        proc = start(
             stereotrack("record", "--cam0", "sim:dots", "--cam1", "sim:dots", *SIM, "--out", str(out)),
             cwd=ROOT,
             stdout=subprocess.DEVNULL,
@@ -148,7 +168,7 @@ def test_video_file_cameras_stop_cleanly_on_ctrl_c_and_sigterm(tmp_path, clips):
     rng = np.random.default_rng(7)
     for k, sig in enumerate([signal.SIGINT, signal.SIGTERM] * 2):
         out = tmp_path / f"s{k}"
-        proc = subprocess.Popen(
+        proc = start(
             stereotrack("record", "--cam0", str(clips / "a.mkv"), "--cam1", str(clips / "b.mkv"), *PATIENT, "--out", str(out)),
             cwd=ROOT,
             stderr=subprocess.PIPE,
@@ -221,7 +241,7 @@ def test_video_files_of_different_sizes_are_refused_in_one_line(tmp_path, clips)
 def test_commands_started_in_the_background_stop_on_sigint(tmp_path, clips):
     """A script's `cmd &` leaves SIGINT ignored; the commands install their handlers anyway."""
     rec = tmp_path / "rec"
-    proc = subprocess.Popen(
+    proc = start(
         stereotrack("record", "--cam0", "sim:dots", "--cam1", "sim:dots", *SIM, "--out", str(rec)),
         cwd=ROOT,
         stderr=subprocess.PIPE,
@@ -233,7 +253,7 @@ def test_commands_started_in_the_background_stop_on_sigint(tmp_path, clips):
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0 and "stopped by SIGINT" in err, err
     live = tmp_path / "live"
-    proc = subprocess.Popen(
+    proc = start(
         stereotrack("live", "--cam0", "sim:pendulum4", "--cam1", "sim:pendulum4", *SIM, "--quiet", "--record", str(live)),
         cwd=ROOT,
         stderr=subprocess.PIPE,
@@ -245,7 +265,7 @@ def test_commands_started_in_the_background_stop_on_sigint(tmp_path, clips):
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0 and "stopped by SIGINT" in err and "Traceback" not in err, err
     assert open_recording(live).n_frames == frames_csv_rows(live)
-    proc = subprocess.Popen(
+    proc = start(
         stereotrack("track", str(live), "--realtime", "--all-frames", "--out", str(tmp_path / "t.csv")),
         cwd=ROOT,
         stderr=subprocess.PIPE,
@@ -285,7 +305,7 @@ def test_a_signal_in_the_first_moments_stops_cleanly(tmp_path, clips, command):
             "track": ["track", str(source), "--out", str(tmp_path / f"t{k}.csv")],
         }[command]
         sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
-        proc = subprocess.Popen(stereotrack(*args), cwd=ROOT, stderr=subprocess.PIPE, text=True, preexec_fn=at_default)
+        proc = start(stereotrack(*args), cwd=ROOT, stderr=subprocess.PIPE, text=True, preexec_fn=at_default)
         wait_for_handlers(proc)
         time.sleep(delay)
         proc.send_signal(sig)
