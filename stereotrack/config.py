@@ -186,11 +186,11 @@ class TrackSettings:
         30.0, "motion model: white-acceleration spectral density, m^2/s^3 (how fast a ball may change velocity)", low=0.0, high=1e6
     )
     fast_accel_noise: float = setting(
-        9.0, "motion model of a confirmed ball at 8 m/s or more (thrown, pitched: no hand carries one so fast), which flies "
-        "under gravity (with 'up') and air drag: white-acceleration spectral density, m^2/s^3", low=0.0, high=1e6,
+        9.0, "motion model of a confirmed ball at 8 m/s or more (thrown, pitched: no hand carries one so fast) when 'up' is "
+        "set: it flies under gravity and air drag; white-acceleration spectral density, m^2/s^3", low=0.0, high=1e6,
     )  # fmt: skip
     drag: float = setting(
-        0.012, "air drag of a ball at 8 m/s or more, 1/m: it slows by drag x speed^2 (rho Cd area / 2 mass: a baseball 0.006, "
+        0.012, "air drag of a ball at 8 m/s or more (with 'up'), 1/m: it slows by drag x speed^2 (rho Cd area / 2 mass: a baseball 0.006, "
         "a football 0.013, a tennis ball 0.02, a table-tennis ball 0.14); 0 = none", low=0.0, high=10.0,
     )  # fmt: skip
     measurement_sigma: float = setting(0.01, "metres, added to each object's own covariance as measurement noise", low=0.0, high=10.0)

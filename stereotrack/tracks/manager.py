@@ -242,7 +242,7 @@ class TrackManager:
             return tr.x.copy(), tr.P.copy(), np.eye(6)
         if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
             return tr.prediction[3].copy(), tr.prediction[4].copy(), tr.prediction[5]
-        if tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT:  # thrown, pitched: gravity and drag (motion.FAST_FLIGHT)
+        if self.gravity is not None and tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT:  # thrown: motion.FAST_FLIGHT
             F, Q, b = fast_flight_model(dt, tr.x[3:], self.settings.fast_accel_noise, self.gravity, self.settings.drag)
         else:
             F, Q, b = self._motion_model(dt, tr.in_flight)

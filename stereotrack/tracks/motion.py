@@ -29,10 +29,10 @@ def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> t
 # m/s: a ball this fast flies (thrown, pitched, shot: no hand carries one so fast), under gravity and air drag, whose
 # deceleration along its flight (6-18 m/s^2 for a pitch at 30 m/s) the constant-velocity model otherwise takes as noise.
 # Far away its objects are too vague in depth for the free-flight test, so it gets gravity by its speed. With drag known
-# it needs less noise (tracks.fast_accel_noise). fast_ball tune seeds 0-159 (four kinds of ball, drag 0.006-0.02), MOTA
-# summed against a track's plain model (noise 30, no gravity until the free-flight test): drag 0.012 with noise 9
-# +3.75 (median 0.950 -> 0.964), 3 +2.79, 30 +0.30; noise 9 with drag 0.006 +1.02, 0.02 +1.25, none -0.80. Seeds
-# 160-319, never looked at: +2.37 (median 0.966 -> 0.976).
+# it needs less noise (tracks.fast_accel_noise); only with gravity known ('up'): with its fall unknown, less noise lags.
+# fast_ball tune seeds 0-159 (four kinds of ball, drag 0.006-0.02), MOTA summed against a track's plain model (noise 30,
+# no gravity until the free-flight test): drag 0.012 with noise 9 +3.75 (median 0.950 -> 0.964), 3 +2.79, 30 +0.30;
+# noise 9 with drag 0.006 +1.02, 0.02 +1.25, none -0.80. Seeds 160-319, never looked at: +2.37 (median 0.966 -> 0.976).
 FAST_FLIGHT = 8.0
 
 
