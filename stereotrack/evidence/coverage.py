@@ -10,10 +10,11 @@ pixels of disparity is 0.3-1.2 m of depth when the streak runs along the
 epipolar lines (fast_ball tune seeds 3, 10, 13, 15, 19: the mask centroids' disparity is off by 0.28-0.65
 pixels (median), these by 0.13-0.34).
 
-How far a pixel is from the background (summed over its three channels) is
+How far a pixel is from the background along the ball's colour (its
+difference from the background projected on the streak's summed one) is
 linear in the share the ball covered of it, for one ball colour over one
 background colour; on the background's grid (motion.py, half the evidence
-grid) sensor noise stays under ``NOISE`` and is cut first.
+grid) sensor noise has a mean of zero along it, and ``NOISE`` of it is cut.
 """
 
 from __future__ import annotations
@@ -24,31 +25,34 @@ import numpy as np
 from .blobs import Blobs
 from .motion import SCALE
 
-NOISE = 12.0  # grey levels (three channels, the background's grid): sensor noise's 99.9th percentile is under 10 (motion.py)
+# The change is measured along the streak's own colour: each cell's difference from the background (three channels)
+# projected on the direction of the whole window's summed difference, the ball's colour against the room. Sensor
+# noise then has a mean of zero (the sum of absolute differences it had before is always positive, and cutting it at
+# 12 grey levels cut a far streak's faint ends unevenly where the wall behind its two ends differs); this much of it
+# is cut. Error along the streak against the truth's projection, fast_ball tune seeds 0-79 (about 4600 long streaks
+# the tracker triangulated; evidence pixels, median / 90th percentile), before -> now: under 4 pixels half wide 0.165 /
+# 0.667 -> 0.131 / 0.499; wider ones (the mask's centroid before) 0.296 / 0.833 -> 0.189 / 0.764. A cut at 1.5 or
+# 4.5 is within 0.01 of 3 at the median; the absolute differences cut at 12 for every width, 0.184 / 0.725.
+NOISE = 3.0  # grey levels along the streak's colour (the background's grid)
 MARGIN = 2  # evidence pixels beyond a streak's half width that its faint ends may reach past its mask
-LEAST_CHANGE = 1.0  # a streak whose cells change by less than NOISE this many times on average is too faint to measure
-# Measured on fast_ball tune seeds 0-19 (1071 long streaks), error along the streak against the truth's projection:
-# on streaks under THIN pixels half wide the change's centre is better than the mask's (median 0.14-0.19 pixels
-# against 0.24-0.49), on wider ones no better and from 10 pixels worse (the ball's shading against the room, 0.52
-# against 0.33); a centre moved more than MOST_SHIFT pixels from the mask's was the better one only half the time
-# (something else changing beside the streak), one moved less four times in five.
-THIN = 4.0  # evidence pixels: the widest streak (half its width) whose centre is measured
-MOST_SHIFT = 1.5  # evidence pixels along the streak
+# A centre moved more than this along the streak from its mask's is pulled by something else changing beside it (fast_ball
+# tune seeds 0-19: such a centre was the better one only half the time); the mask's is kept.
+MOST_SHIFT = 1.5  # evidence pixels
 
 
 def coverage_centres(blobs: Blobs, ids: np.ndarray, image: np.ndarray, behind: np.ndarray) -> np.ndarray:
     """Per blob (``ids`` of ``blobs``, components with labels), the centroid of the change between ``image`` and the
     background ``behind`` (BGR uint8, both on the background's grid, 1 / SCALE of the evidence grid's width and height)
-    over the blob's own cells and their neighbourhood (its half width and MARGIN more), moved along the blob's major
-    axis only, in evidence pixels. NaN where it is not measured (no labels, a streak THIN or wider, a change too
-    faint, or a centre pulled more than MOST_SHIFT from the mask's, by something else changing beside the streak):
-    the caller keeps the mask's centroid there."""
+    along the streak's colour, over the blob's own cells and their neighbourhood (its half width and MARGIN more),
+    moved along the blob's major axis only, in evidence pixels. NaN where it is not measured (no labels, no change, or
+    a centre pulled more than MOST_SHIFT from the mask's, by something else changing beside the streak): the caller
+    keeps the mask's centroid there."""
     out = np.full((len(ids), 2), np.nan)
     if blobs.labels is None or blobs.label_blob is None or blobs.boxes is None or blobs.axes is None or blobs.major is None:
         return out
     ls, h, w = blobs.label_scale, image.shape[0], image.shape[1]
     for n, k in enumerate(np.asarray(ids, dtype=int)):
-        if not np.isfinite(blobs.axes[k]).all() or blobs.axes[k, 1] >= THIN:  # (a blob's moments unmeasured: none to move)
+        if not np.isfinite(blobs.axes[k]).all():  # (a blob's moments unmeasured: none to move)
             continue
         grow = int(np.ceil((blobs.axes[k, 1] + MARGIN) / SCALE))  # cells of the background's grid
         x0, y0, x1, y1 = (int(c) * ls for c in blobs.boxes[k])  # evidence pixels, end exclusive
@@ -64,10 +68,14 @@ def coverage_centres(blobs: Blobs, ids: np.ndarray, image: np.ndarray, behind: n
         if not own.any():
             continue
         near = cv2.dilate(own.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
-        change = np.abs(image[gy0:gy1, gx0:gx1].astype(np.int16) - behind[gy0:gy1, gx0:gx1]).sum(axis=2)
-        weight = np.where(near, np.maximum(change - NOISE, 0.0), 0.0)
+        change = image[gy0:gy1, gx0:gx1].astype(np.float32) - behind[gy0:gy1, gx0:gx1]
+        colour = np.where(near[..., None], change, 0.0).sum(axis=(0, 1))
+        size = float(np.linalg.norm(colour))
+        if size == 0.0:
+            continue
+        weight = np.where(near, np.maximum(change @ (colour / size) - NOISE, 0.0), 0.0)
         total = weight.sum()
-        if total < LEAST_CHANGE * NOISE * own.sum():
+        if total <= 0.0:
             continue
         # A cell's centre is the mean of the SCALE x SCALE evidence pixels it averages.
         centre = SCALE * np.array([(xs * weight).sum(), (ys * weight).sum()]) / total + (SCALE - 1) / 2.0
