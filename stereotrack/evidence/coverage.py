@@ -36,7 +36,9 @@ from .motion import SCALE
 NOISE = 3.0  # grey levels along the streak's colour (the background's grid)
 MARGIN = 2  # evidence pixels beyond a streak's half width that its faint ends may reach past its mask
 # A centre moved more than this along the streak from its mask's is pulled by something else changing beside it (fast_ball
-# tune seeds 0-19: such a centre was the better one only half the time); the mask's is kept.
+# tune seeds 0-19, the absolute differences' centre: such a centre was the better one only half the time); the mask's is
+# kept. Along the colour it costs little (tune seeds 0-79, all 7947 streaks, projected on their own cells' summed change: 90th
+# percentile 0.604 -> 0.612 px).
 MOST_SHIFT = 1.5  # evidence pixels
 
 
