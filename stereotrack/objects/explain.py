@@ -85,7 +85,7 @@ class ExplainSettings:
 SIZE_TOLERANCE = 0.3  # sigma of log(blob radius / expected radius) in the ranking
 REFINE_TOLERANCE = 0.3  # |log size ratio| below this in a camera makes its blob clean enough to refine with
 TRACK_BONUS = 3.0  # rank multiplier for objects a confirmed track predicts
-ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean
+ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean (far: _stereo_depth_variance)
 DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
 DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
 PARTIAL_DEPTHS = (0.75, 1.35)  # a partly seen view's fit searches these multiples of the particles' depth ...
@@ -478,10 +478,24 @@ def _one_view(
     if fit is not None:
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
+    # No better than two views would place it: a far ball's particles are as sure of its depth at 13 m as at 1 m
+    # (ONE_VIEW_DEPTH_SIGMA), where a pixel of disparity is 0.26 m.
+    along = max(along, _stereo_depth_variance(point, d, j, cameras))
     z = float(cameras[j].depth(point[None])[0])
     across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
     cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     return replace(obj, position=point, covariance=cov)
+
+
+def _stereo_depth_variance(point: np.ndarray, d: np.ndarray, j: int, cameras) -> float:
+    """Variance along ``d`` of ``point`` triangulated from camera ``j`` and the next camera, their centroids
+    CENTROID_SIGMA_PX off (0 with one camera)."""
+    if len(cameras) < 2:
+        return 0.0
+    pair = [cameras[j], cameras[(j + 1) % len(cameras)]]
+    cov = triangulate_with_covariance(pair, [c.project(point[None])[0] for c in pair], CENTROID_SIGMA_PX)[1][0]
+    along = float(d @ cov @ d)
+    return along if np.isfinite(along) else 0.0  # (behind the other camera: no floor)
 
 
 def _fit_shared_blobs(o, d, depth, along, i, shared, blob_ids, cameras, blobs, settings, positions) -> RayFit | None:

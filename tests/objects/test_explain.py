@@ -369,3 +369,28 @@ def test_a_ball_cut_in_two_pieces_in_every_view_is_one_ball_and_two_touching_bal
     masks, _ = disc_masks(rig, touching, radius=0.9 * RADIUS)  # (drawn a little smaller: two blobs, not one)
     kept, into = explain([obj(p) for p in touching], evidence(rig, masks), ExplainSettings(radius=RADIUS))
     assert len(kept) == 2 and list(into) == [0, 1]
+
+
+def test_a_ball_seen_by_one_camera_claims_no_better_depth_than_two_would_give():
+    """A ball hidden in cam1 is placed on its cam0 ray at the particles' depth, which they claim to 7 cm at any
+    distance (ONE_VIEW_DEPTH_SIGMA). At 6 m, 0.3 m of baseline triangulates half-pixel centroids to 0.15 m along the
+    ray: a far ball's one-view object claimed half that and pulled its track off (fast_ball tune seed 241, 12.7 m)."""
+    from stereotrack.camera import triangulate_with_covariance
+    from stereotrack.objects.explain import ONE_VIEW_DEPTH_SIGMA
+    from stereotrack.objects.shapes import CENTROID_SIGMA_PX
+
+    rig = default_rig()
+    c0 = rig.cameras[0]
+    for ball, floor in ((np.array([0.1, 6.0, 0.0]), "stereo"), (np.array([0.1, 1.5, 0.0]), "particles")):
+        masks, _ = disc_masks(rig, ball[None])
+        masks[1][:] = 0  # hidden in cam1
+        ray = (ball - c0.centre) / np.linalg.norm(ball - c0.centre)
+        kept, _ = explain([obj(ball, ray, 0.02)], evidence(rig, masks), ExplainSettings(radius=RADIUS))
+        assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.01
+        sigma = np.sqrt(ray @ kept[0].covariance @ ray)
+        two = triangulate_with_covariance(rig.cameras, [c.project(ball[None])[0] for c in rig.cameras], CENTROID_SIGMA_PX)[1][0]
+        stereo = np.sqrt(ray @ two @ ray)
+        if floor == "stereo":
+            assert stereo > 2 * ONE_VIEW_DEPTH_SIGMA and sigma >= 0.99 * stereo, (sigma, stereo)
+        else:
+            assert stereo < ONE_VIEW_DEPTH_SIGMA and abs(sigma - ONE_VIEW_DEPTH_SIGMA) < 1e-6, (sigma, stereo)
