@@ -67,8 +67,9 @@ class TrackEstimate:
     flight: Parabola | None = None  # the fitted parabola while the ball flies freely (needs tracks.up), else None
     settled: bool = False  # it has moved since it was first past tentative, or lived a while: its ball is no ghost (tracks/manager.py)
     travelled: bool = False  # it has moved across a camera's line of sight since it was first past tentative: no scenery
-    # The frame it is confirmed: its hits while tentative, each (time, position, 3 x 3 covariance, n_particles), for the
-    # tracks.csv to write in hindsight (a ball is in the file from the frame it was first seen, not confirm_time later).
+    # The frame it is confirmed: its hits while tentative and the frames it missed between them (placed on the line
+    # between the hits), each (time, position, 3 x 3 covariance, n_particles), for the tracks.csv to write in hindsight
+    # (a ball is in the file from the frame it was first seen, not confirm_time later).
     before: tuple = ()
     # Its states at the frames smooth_time old by now smoothed with every frame since (a Kalman smoother): each (time,
     # position, 3 x 3 covariance), oldest first, given once (mostly one a frame; several after a slower frame), for the

@@ -25,7 +25,7 @@ class TracksCsvSink:
     previous file as it was (check the path first with ``files.check_output``).
 
     With ``hold`` seconds, each frame's rows wait that long before they are written, so that a track confirmed
-    meanwhile is in the file from the frame it was first seen (its ``TrackEstimate.before`` hits, in frame
+    meanwhile is in the file from the frame it was first seen (its ``TrackEstimate.before`` frames, in frame
     order): a ball is not missing for the confirm_time it takes to trust it; and each row is written with its
     track's smoothed state at its frame (``TrackEstimate.smoothed``, smooth_time later). ``hold_for`` gives the
     hold that covers every track a config can confirm, and the smoothing."""

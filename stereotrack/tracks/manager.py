@@ -40,7 +40,7 @@ from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
 from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model
-from .smoothing import FilterHistory
+from .smoothing import FilterHistory, between_hits
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
@@ -98,7 +98,7 @@ class _Track:
     shown: int = 0  # frames it has been past tentative
     settled: bool = False  # see ``TrackManager._settled``
     travelled: bool = False  # see ``TrackManager._travelled``
-    early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) at its hits while tentative
+    early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) while tentative (position None: missed)
     entry: tuple | None = None  # (time of the frame before its first hit, its first hit as in ``early``) until judged (``_entered``)
     link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
     past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
@@ -213,12 +213,12 @@ class TrackManager:
             if t.confirmed and t.hit:
                 t.travelled = t.travelled or self._travelled(t, t.x[:3])
         for t in self._tracks:
-            if t.hit and not t.confirmed:
-                t.early.append((time, t.x[:3].copy(), t.P[:3, :3].copy(), t.n_particles))
+            if not t.confirmed and (t.hit or t.early):  # a frame missed between hits too, placed at confirmation (between_hits)
+                t.early.append((time, t.x[:3].copy() if t.hit else None, t.P[:3, :3].copy(), t.n_particles))
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
         smoothed = [self._smoothed(t, time) for t in self._tracks]
         estimates = tuple(
-            self._estimate(t, t.x, t.P, v, t.settled, self._entered(t) + t.early if t.confirmed else (), sm)
+            self._estimate(t, t.x, t.P, v, t.settled, self._entered(t) + between_hits(t.early) if t.confirmed else (), sm)
             for t, v, sm in zip(self._tracks, seen, smoothed)
         )
         for t in self._tracks:
@@ -545,12 +545,13 @@ class TrackManager:
     def _smoothed(self, tr: _Track, time: float) -> tuple:
         """Keep this frame's state; give each frame smooth_time old by now smoothed with the later ones (FilterHistory.
         revise_until); none with smooth_time 0. A filter's estimate at a frame knows only the frames before it: a far
-        ball's depth, a pixel of disparity off in one frame, pulls the track off for several. The smoother's knows the
-        frames after too (fast_ball tune seeds 0-59, smoothed over 0.15 s: median MOTA 0.862 -> 0.926, mean 0.708 -> 0.789)."""
+        ball's depth, a pixel of disparity off in one frame, pulls the track off for several. The smoother's knows the frames
+        after too (fast_ball tune seeds 0-59, smoothed over 0.15 s: median MOTA 0.862 -> 0.926, mean 0.708 -> 0.789). A
+        tentative track's miss is no estimate to revise (between_hits places it)."""
         window = self.settings.smooth_time
         if window <= 0:
             return ()
-        tr.past.append(time, tr.x, tr.P, tr.link, not self._caught_below_launch(tr, tr.x))
+        tr.past.append(time, tr.x, tr.P, tr.link, (tr.confirmed or tr.hit) and not self._caught_below_launch(tr, tr.x))
         return tr.past.revise_until(time - window + _EPS_TIME, tr.confirmed)
 
     def _caught_below_launch(self, tr: _Track, x: np.ndarray) -> bool:
@@ -559,8 +560,7 @@ class TrackManager:
         return bool(not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch)
 
     def _expired(self, tr: _Track, time: float) -> bool:
-        limit = self.settings.delete_time if tr.confirmed else self.settings.tentative_time
-        return time - tr.last_hit > limit + _EPS_TIME
+        return time - tr.last_hit > (self.settings.delete_time if tr.confirmed else self.settings.tentative_time) + _EPS_TIME
 
     def _in_view(self, positions: np.ndarray) -> np.ndarray:
         """Per position: inside every camera's image (always true without a rig)."""
