@@ -478,8 +478,8 @@ def _one_view(
     if fit is not None:
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
-    # No better than two views would place it: a far ball's particles are as sure of its depth at 13 m as at 1 m
-    # (ONE_VIEW_DEPTH_SIGMA), where a pixel of disparity is 0.26 m.
+    # No better than two views would place it: the particles claim a far ball's depth as sharply as a near one's
+    # (ONE_VIEW_DEPTH_SIGMA), where a pixel of disparity is 0.26 m at 12.7 m (fast_ball's 1.25 m baseline).
     along = max(along, _stereo_depth_variance(point, d, j, cameras))
     z = float(cameras[j].depth(point[None])[0])
     across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
