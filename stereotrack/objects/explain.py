@@ -478,21 +478,25 @@ def _one_view(
     if fit is not None:
         depth, along = fit.depth, max(fit.sigma, DISC_FIT_SIGMA) ** 2
     point = o + d * depth
+    z = float(cameras[j].depth(point[None])[0])
     # No better than two views would place it: the particles claim a far ball's depth as sharply as a near one's
     # (ONE_VIEW_DEPTH_SIGMA), where a pixel of disparity is 0.26 m at 12.7 m (fast_ball's 1.25 m baseline).
-    along = max(along, _stereo_depth_variance(point, d, j, cameras))
-    z = float(cameras[j].depth(point[None])[0])
+    along = max(along, _stereo_depth_variance(point, d, j, cameras, z, along))
     across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
     cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     return replace(obj, position=point, covariance=cov)
 
 
-def _stereo_depth_variance(point: np.ndarray, d: np.ndarray, j: int, cameras) -> float:
-    """Variance along ``d`` of ``point`` triangulated from camera ``j`` and the next camera, their centroids
-    CENTROID_SIGMA_PX off (0 with one camera)."""
+def _stereo_depth_variance(point: np.ndarray, d: np.ndarray, j: int, cameras, z: float, claimed: float) -> float:
+    """Variance along ``d`` of ``point`` (``z`` deep in camera ``j``) triangulated from camera ``j`` and the next
+    camera, their centroids CENTROID_SIGMA_PX off; 0 with one camera, or where its rough figure, sigma z^2 / (f b),
+    is under half the sigma of the ``claimed`` variance (a near ball: the triangulation cost 3 % of pendulum4's step)."""
     if len(cameras) < 2:
         return 0.0
     pair = [cameras[j], cameras[(j + 1) % len(cameras)]]
+    rough = np.sqrt(2.0) * CENTROID_SIGMA_PX * z * z / (pair[0].focal_px * float(np.linalg.norm(pair[0].centre - pair[1].centre)) + 1e-12)
+    if (2.0 * rough) ** 2 < claimed:
+        return 0.0
     cov = triangulate_with_covariance(pair, [c.project(point[None])[0] for c in pair], CENTROID_SIGMA_PX)[1][0]
     along = float(d @ cov @ d)
     return along if np.isfinite(along) else 0.0  # (behind the other camera: no floor)
