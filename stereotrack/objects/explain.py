@@ -85,7 +85,7 @@ class ExplainSettings:
 SIZE_TOLERANCE = 0.3  # sigma of log(blob radius / expected radius) in the ranking
 REFINE_TOLERANCE = 0.3  # |log size ratio| below this in a camera makes its blob clean enough to refine with
 TRACK_BONUS = 3.0  # rank multiplier for objects a confirmed track predicts
-ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean (far: _stereo_depth_variance)
+ONE_VIEW_DEPTH_SIGMA = 0.07  # metres: how little the particles say about depth when only one view is clean (far: _two_view_depth_floor)
 DISC_FIT_TOLERANCE = 0.05  # pixels of mismatch that make a depth e times less likely, as a share of the ball's disc area
 DISC_FIT_SIGMA = 0.01  # metres: the least depth uncertainty a disc fit claims
 PARTIAL_DEPTHS = (0.75, 1.35)  # a partly seen view's fit searches these multiples of the particles' depth ...
@@ -481,16 +481,17 @@ def _one_view(
     z = float(cameras[j].depth(point[None])[0])
     # No better than two views would place it: the particles claim a far ball's depth as sharply as a near one's
     # (ONE_VIEW_DEPTH_SIGMA), where a pixel of disparity is 0.26 m at 12.7 m (fast_ball's 1.25 m baseline).
-    along = max(along, _stereo_depth_variance(point, d, j, cameras, z, along))
+    along = max(along, _two_view_depth_floor(point, d, j, cameras, z, along))
     across = (CENTROID_SIGMA_PX * z / cameras[j].focal_px) ** 2
     cov = across * (np.eye(3) - np.outer(d, d)) + along * np.outer(d, d)
     return replace(obj, position=point, covariance=cov)
 
 
-def _stereo_depth_variance(point: np.ndarray, d: np.ndarray, j: int, cameras, z: float, claimed: float) -> float:
-    """Variance along ``d`` of ``point`` (``z`` deep in camera ``j``) triangulated from camera ``j`` and the next
-    camera, their centroids CENTROID_SIGMA_PX off; 0 with one camera, or where its rough figure, sigma z^2 / (f b),
-    is under half the sigma of the ``claimed`` variance (a near ball: the triangulation cost 3 % of pendulum4's step)."""
+def _two_view_depth_floor(point: np.ndarray, d: np.ndarray, j: int, cameras, z: float, claimed: float) -> float:
+    """The variance along ``d`` that two views would give ``point`` (``z`` deep in camera ``j``): triangulated from
+    camera ``j`` and the next one, their centroids CENTROID_SIGMA_PX off. 0 where it cannot bind: with one camera, or
+    where its rough figure, sigma z^2 / (f b), is under half the sigma of the ``claimed`` variance (a near ball; the
+    triangulation cost 3 % of pendulum4's step)."""
     if len(cameras) < 2:
         return 0.0
     pair = [cameras[j], cameras[(j + 1) % len(cameras)]]
