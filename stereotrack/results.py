@@ -72,8 +72,9 @@ class TrackEstimate:
     # (a ball is in the file from the frame it was first seen, not confirm_time later).
     before: tuple = ()
     # Its states at the frames smooth_time old by now smoothed with every frame since (a Kalman smoother): each (time,
-    # position, 3 x 3 covariance), oldest first, given once (mostly one a frame; several after a slower frame), for the
-    # tracks.csv and the viewer to write in place of that frame's (tracks.smooth_time).
+    # position, 3 x 3 covariance, fill), oldest first, given once (mostly one a frame; several after a slower frame), for
+    # the tracks.csv and the viewer to write in place of that frame's (tracks.smooth_time); with ``fill``, also where
+    # it wrote none (it coasted unreported, and its ball was met again since: tracks/smoothing.hindsight_fills).
     smoothed: tuple = ()
 
 

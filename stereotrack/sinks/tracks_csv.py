@@ -60,11 +60,15 @@ class TracksCsvSink:
             held[2].append(_Row(held[1], time, tr.track_id, position, covariance, n_particles, tr.target))
 
     def _smooth(self, tr: TrackEstimate) -> None:
-        """A track's smoothed state at a held frame takes the place of its row's (when it has one there)."""
-        for held, (_, position, covariance) in frames_of_hits(self._held, tr.smoothed):
-            for row in held[2]:
-                if row.track_id == tr.track_id:  # (ids are unique across targets)
-                    row.position, row.covariance = position, covariance
+        """A track's smoothed state at a held frame takes the place of its row's; where it has none there (it coasted
+        unreported: contested, out of view, or longer than report_coasting) and the track says to fill it (its ball met
+        again since, placed sharply: tracks/smoothing.hindsight_fills), the smoothed state is its row."""
+        for held, (time, position, covariance, fill) in frames_of_hits(self._held, tr.smoothed):
+            row = next((row for row in held[2] if row.track_id == tr.track_id), None)  # (ids are unique across targets)
+            if row is not None:
+                row.position, row.covariance = position, covariance
+            elif fill:
+                held[2].append(_Row(held[1], time, tr.track_id, position, covariance, 0, tr.target))
 
     def _flush_oldest(self) -> None:
         rows = self._held.popleft()[2]

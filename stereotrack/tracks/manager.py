@@ -40,7 +40,7 @@ from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
 from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model
-from .smoothing import FilterHistory, between_hits
+from .smoothing import FilterHistory, between_hits, hindsight_fills
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
@@ -216,7 +216,7 @@ class TrackManager:
             if not t.confirmed and (t.hit or t.early):  # a frame missed between hits too, placed at confirmation (between_hits)
                 t.early.append((time, t.x[:3].copy() if t.hit else None, t.P[:3, :3].copy(), t.n_particles))
         seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
-        smoothed = [self._smoothed(t, time) for t in self._tracks]
+        smoothed = hindsight_fills([self._smoothed(t, time) for t in self._tracks], [t.target for t in self._tracks], self.radius)
         estimates = tuple(
             self._estimate(t, t.x, t.P, v, t.settled, self._entered(t) + between_hits(t.early) if t.confirmed else (), sm)
             for t, v, sm in zip(self._tracks, seen, smoothed)
@@ -551,7 +551,7 @@ class TrackManager:
         window = self.settings.smooth_time
         if window <= 0:
             return ()
-        tr.past.append(time, tr.x, tr.P, tr.link, (tr.confirmed or tr.hit) and not self._caught_below_launch(tr, tr.x))
+        tr.past.append(time, tr.x, tr.P, tr.link, (tr.confirmed or tr.hit) and not self._caught_below_launch(tr, tr.x), tr.hit)
         return tr.past.revise_until(time - window + _EPS_TIME, tr.confirmed)
 
     def _caught_below_launch(self, tr: _Track, x: np.ndarray) -> bool:

@@ -663,7 +663,8 @@ def test_a_tracks_smoothed_state_is_shown_at_its_frame_even_when_it_comes_with_a
     results = [make_result(rig, f, rng) for f in range(8)]
     revised = np.array([0.3, -0.2, 2.5])
     tracks = tuple(
-        replace(t, smoothed=((results[2].frame.time, revised, np.eye(3) * 1e-4),)) if t.track_id == 1 else t for t in results[5].tracks
+        replace(t, smoothed=((results[2].frame.time, revised, np.eye(3) * 1e-4, True),)) if t.track_id == 1 else t
+        for t in results[5].tracks
     )
     results[5] = replace(results[5], tracks=tracks)
     sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "s.rrd"), VizSettings(every=every))
@@ -673,3 +674,31 @@ def test_a_tracks_smoothed_state_is_shown_at_its_frame_even_when_it_comes_with_a
     rows = read_rrd(tmp_path / "s.rrd")
     centres = np.array(latest(rows["world/tracks"], "Ellipsoids3D:centers", 2)).reshape(-1, 3)
     assert np.min(np.linalg.norm(centres - revised, axis=1)) < 1e-5
+
+
+@pytest.mark.parametrize("fill", [True, False])
+def test_a_frame_a_track_coasted_through_unreported_is_shown_when_the_track_fills_it(tmp_path, fill):
+    """A frame a track was not written at (it coasted unreported) shows it at its smoothed state once the track says to
+    fill it (TrackEstimate.smoothed's last field: its ball met again since, placed sharply), as tracks.csv writes it;
+    not otherwise."""
+    from stereotrack.sinks.viewer.sink import RerunSink, VizOutputs
+
+    rig, rng = make_rig(), np.random.default_rng(6)
+    results = [make_result(rig, f, rng) for f in range(8)]
+    results[2] = replace(results[2], tracks=tuple(t for t in results[2].tracks if t.track_id != 1))
+    revised = np.array([0.3, -0.2, 2.5])
+    tracks = tuple(
+        replace(t, smoothed=((results[2].frame.time, revised, np.eye(3) * 1e-4, fill),)) if t.track_id == 1 else t
+        for t in results[5].tracks
+    )
+    results[5] = replace(results[5], tracks=tracks)
+    sink = RerunSink(rig, Config(targets=TARGETS), VizOutputs(rrd=tmp_path / "f.rrd"))
+    for r in results:
+        sink.write(r)
+    sink.close()
+    rows = read_rrd(tmp_path / "f.rrd")
+    labels = latest(rows["world/tracks"], "Ellipsoids3D:labels", 2)
+    assert any(lb.startswith("#1 ") for lb in labels) == fill, labels
+    if fill:
+        centres = np.array(latest(rows["world/tracks"], "Ellipsoids3D:centers", 2)).reshape(-1, 3)
+        assert np.min(np.linalg.norm(centres - revised, axis=1)) < 1e-5

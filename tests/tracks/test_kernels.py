@@ -4,7 +4,7 @@ import numpy as np
 
 from stereotrack.tracks import kernels as track_kernels
 from stereotrack.tracks.manager import motion_model
-from stereotrack.tracks.smoothing import FilterHistory
+from stereotrack.tracks.smoothing import FILL_APART, FILL_RADII, FilterHistory, hindsight_fills
 
 
 def test_kalman_steps_match_the_textbook_formulas():
@@ -79,7 +79,14 @@ def test_the_filter_history_grows_and_drops_its_oldest_keeping_order():
     history = FilterHistory(capacity=2)
     rng = np.random.default_rng(3)
     states = [
-        (k / 30, rng.normal(size=6), np.eye(6) * (k + 1), None if k == 2 else (rng.normal(size=6), np.eye(6), np.eye(6)), k != 3)
+        (
+            k / 30,
+            rng.normal(size=6),
+            np.eye(6) * (k + 1),
+            None if k == 2 else (rng.normal(size=6), np.eye(6), np.eye(6)),
+            k != 3,
+            k % 2 == 0,
+        )
         for k in range(7)
     ]
     for state in states:
@@ -87,14 +94,9 @@ def test_the_filter_history_grows_and_drops_its_oldest_keeping_order():
     history.drop_oldest()
     assert len(history) == 6 and history.oldest() == (1 / 30, True)
     assert np.array_equal(history.x[:6], [s[1] for s in states[1:]])
-    assert list(history.linked[:6]) == [True, False, True, True, True, True] and list(history.kept[:6]) == [
-        True,
-        True,
-        False,
-        True,
-        True,
-        True,
-    ]
+    assert list(history.linked[:6]) == [True, False, True, True, True, True]
+    assert list(history.kept[:6]) == [True, True, False, True, True, True]
+    assert list(history.hit[:6]) == [False, True, False, True, False, True]
 
 
 def test_restating_the_newest_state_keeps_its_position_and_opens_its_velocity():
@@ -103,8 +105,8 @@ def test_restating_the_newest_state_keeps_its_position_and_opens_its_velocity():
     history = FilterHistory(capacity=2)
     rng = np.random.default_rng(5)
     older, newest = rng.normal(size=6), rng.normal(size=6)
-    history.append(0.0, older, np.eye(6), None, True)
-    history.append(1 / 30, newest, np.eye(6) * 2, None, True)
+    history.append(0.0, older, np.eye(6), None, True, True)
+    history.append(1 / 30, newest, np.eye(6) * 2, None, True, True)
     cov = np.diag([0.01, 0.04, 0.02])
     x, P = history.restate_newest(cov, 12.0)
     assert np.array_equal(x[:3], newest[:3]) and not x[3:].any()
@@ -112,3 +114,23 @@ def test_restating_the_newest_state_keeps_its_position_and_opens_its_velocity():
     assert np.array_equal(history.x[1], x) and np.array_equal(history.P[1], P) and np.array_equal(history.x[0], older)
     x[0] = 99.0  # a copy: the caller's prediction does not write into the history
     assert history.x[1, 0] != 99.0
+
+
+def test_a_gap_is_filled_only_where_sharp_and_apart_from_another_tracks_ball():
+    """hindsight_fills: a frame a track missed, its ball met since, is filled where its smoothed state is within
+    FILL_RADII ball radii (one sigma) and no other track of its colour held a ball within FILL_APART radii then; a frame
+    it was seen in is never a gap, and without the target's radius nothing is filled."""
+    r, here = 0.03, np.array([0.0, 0.0, 2.0])
+    sharp, vague = np.eye(3) * (0.9 * FILL_RADII * r) ** 2, np.diag([1e-6, 1e-6, (1.1 * FILL_RADII * r) ** 2])
+    beside = here + [1.1 * FILL_APART * r, 0.0, 0.0]
+    near = here + [0.9 * FILL_APART * r, 0.0, 0.0]
+
+    def fills(revisions, targets=("red", "red"), radius=None):
+        return [[f for *_, f in track] for track in hindsight_fills(revisions, list(targets), {"red": r} if radius is None else radius)]
+
+    assert fills([[(0.1, here, sharp, True), (0.2, here, vague, True), (0.3, here, sharp, False)], []]) == [[True, False, False], []]
+    assert fills([[(0.1, here, sharp, True)], [(0.1, beside, sharp, False)]]) == [[True], [False]]
+    assert fills([[(0.1, here, sharp, True)], [(0.1, near, sharp, False)]]) == [[False], [False]]
+    assert fills([[(0.1, here, sharp, True)], [(0.1, near, sharp, False)]], targets=("red", "blue")) == [[True], [False]]
+    assert fills([[(0.1, here, sharp, True)], [(0.2, near, sharp, False)]]) == [[True], [False]], "another frame's ball"
+    assert fills([[(0.1, here, sharp, True)], []], radius={}) == [[False], []]

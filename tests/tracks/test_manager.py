@@ -544,7 +544,7 @@ def test_frames_a_tentative_track_missed_between_its_hits_are_written_between_th
         t = i / fps
         for tr in m.update([] if i in (1, 2) else [obj(start + v * t, sigma=0.003)], t):
             written.update({round(time * fps): p for time, p, *_ in tr.before})
-            written.update({round(time * fps): p for time, p, _ in tr.smoothed if round(time * fps) in written})
+            written.update({round(time * fps): p for time, p, *_ in tr.smoothed if round(time * fps) in written})
     assert {1, 2} <= set(written), sorted(written)
     for i in (1, 2):
         assert np.linalg.norm(written[i] - (start + v * i / fps)) < 0.02, (i, written[i])
@@ -568,7 +568,7 @@ def test_each_state_is_given_once_smoothed_a_smooth_time_later_and_beats_the_fil
         t = i / fps
         (tr,) = m.update([obj(truth(t) + noise[i], sigma=0.01)], t)
         filtered[round(t, 9)] = tr.position, tr.covariance
-        for time, position, covariance in tr.smoothed:
+        for time, position, covariance, _ in tr.smoothed:
             assert t - time == pytest.approx(np.ceil(settings.smooth_time * fps - 1e-6) / fps)
             assert np.all(np.diag(covariance) <= np.diag(filtered[round(time, 9)][1]) + 1e-12), "knowing more, it claims less"
             smoothed.append((time, position))
@@ -650,7 +650,7 @@ def test_a_fast_balls_first_hit_off_and_vague_is_smoothed_onto_its_path():
         o = obj(p0 + v * t + first_off, sigma=0.03) if i == 0 else obj(p0 + v * t)
         for tr in m.update([o], t):
             ids.add(tr.track_id)
-            smoothed.update({round(time * fps): (tr.track_id, p) for time, p, _ in tr.smoothed})
+            smoothed.update({round(time * fps): (tr.track_id, p) for time, p, *_ in tr.smoothed})
     assert len(ids) == 1
     assert 0 in smoothed, "the first frame comes back smoothed"
     assert np.linalg.norm(smoothed[0][1] - p0) < 0.03, np.linalg.norm(smoothed[0][1] - p0)  # seen 0.067 off
@@ -668,7 +668,7 @@ def test_a_fast_balls_first_hit_counts_as_vague_as_first_objects_are():
         t = i / fps
         o = obj(p0 + v * t + np.array([0.0, 2 * sigma, 0.0]), sigma=sigma) if i == 0 else obj(p0 + v * t, sigma=sigma)
         for tr in m.update([o], t):
-            smoothed.update({round(time * fps): p for time, p, _ in tr.smoothed})
+            smoothed.update({round(time * fps): p for time, p, *_ in tr.smoothed})
     assert np.linalg.norm(smoothed[0] - p0) < 0.02, np.linalg.norm(smoothed[0] - p0)  # seen 0.035 counted as sharp as claimed
 
 

@@ -400,12 +400,18 @@ class RerunSink:
                 pending.tracks = (*pending.tracks, early)
                 sent.append(pending)
         for t in result.tracks:
-            for (_, pending), (_, position, covariance) in frames_of_hits(self._recent, t.smoothed):
+            for (_, pending), (_, position, covariance, fill) in frames_of_hits(self._recent, t.smoothed):
                 if any(shown.track_id == t.track_id for shown in pending.tracks):  # (ids are unique across targets)
                     pending.tracks = tuple(
                         replace(shown, position=position, covariance=covariance) if shown.track_id == t.track_id else shown
                         for shown in pending.tracks
                     )
+                    sent.append(pending)
+                elif fill:  # a frame it coasted through unreported, its ball met again since (as tracks.csv writes it)
+                    filled = replace(
+                        t, position=position, covariance=covariance, n_particles=0, state="coasting", reported=True, before=(), smoothed=()
+                    )
+                    pending.tracks = (*pending.tracks, filled)
                     sent.append(pending)
         sent = [p for p in sent if all(p is not b for b in self._batch)]
         if sent:
