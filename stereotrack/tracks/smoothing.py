@@ -5,8 +5,9 @@ The tracks.csv sink holds each frame's rows a moment before it writes them
 Rauch-Tung-Striebel smoother (kernels.rts_oldest) can use them to revise the
 state at that frame. This is the history it reads: per frame, the filtered
 state, the prediction into it from the frame before, whether the track
-reported it and whether it met an object. Arrays that grow as needed and shift by one as the oldest leaves,
-so the smoother reads them as they are, once per track and frame.
+reported it and whether it met an object. Arrays that grow as needed and
+shift by one as the oldest leaves, so the smoother reads them as they are,
+once per track and frame.
 """
 
 from __future__ import annotations
@@ -50,16 +51,18 @@ def hindsight_fills(revised: list[tuple], targets: list[str], radius: dict[str, 
     """Per track (``targets``: its target's name), its revisions (FilterHistory.revise_until: each (time, position,
     covariance, gap)), the last field now whether the frame is to be written where the track reported nothing
     (TrackEstimate.smoothed). Never without the target's ball radius."""
+    held: dict[tuple[str, float], list[tuple[int, np.ndarray]]] = {}  # (target, time) -> (track, position) of each revision
+    for i, (revisions, target) in enumerate(zip(revised, targets)):
+        for time, position, *_ in revisions:
+            held.setdefault((target, time), []).append((i, position))
     out = []
     for i, (revisions, target) in enumerate(zip(revised, targets)):
         r = radius.get(target, 0.0)
         mine = []
         for time, position, covariance, gap in revisions:
-            fill = gap and np.sqrt(max(np.linalg.eigvalsh(covariance)[-1], 0.0)) <= FILL_RADII * r
-            if fill:
-                others = [p for j, (rv, t) in enumerate(zip(revised, targets)) if j != i and t == target for tm, p, *_ in rv if tm == time]
-                fill = not any(np.linalg.norm(p - position) < FILL_APART * r for p in others)
-            mine.append((time, position, covariance, fill))
+            sharp = gap and np.sqrt(max(np.linalg.eigvalsh(covariance)[-1], 0.0)) <= FILL_RADII * r
+            alone = sharp and all(j == i or np.linalg.norm(p - position) >= FILL_APART * r for j, p in held[(target, time)])
+            mine.append((time, position, covariance, bool(alone)))
         out.append(tuple(mine))
     return out
 
