@@ -119,7 +119,7 @@ def test_restating_the_newest_state_keeps_its_position_and_opens_its_velocity():
 def test_a_gap_is_filled_only_where_sharp_and_apart_from_another_tracks_ball():
     """hindsight_fills: a frame a track missed, its ball met since, is filled where its smoothed state is within
     FILL_RADII ball radii (one sigma) and no other track of its colour held a ball within FILL_APART radii then; a frame
-    it was seen in is never a gap, and without the target's radius nothing is filled."""
+    that is no gap is not filled, and without the target's radius nothing is filled."""
     r, here = 0.03, np.array([0.0, 0.0, 2.0])
     sharp, vague = np.eye(3) * (0.9 * FILL_RADII * r) ** 2, np.diag([1e-6, 1e-6, (1.1 * FILL_RADII * r) ** 2])
     beside = here + [1.1 * FILL_APART * r, 0.0, 0.0]
@@ -134,3 +134,17 @@ def test_a_gap_is_filled_only_where_sharp_and_apart_from_another_tracks_ball():
     assert fills([[(0.1, here, sharp, True)], [(0.1, near, sharp, False)]], targets=("red", "blue")) == [[True], [False]]
     assert fills([[(0.1, here, sharp, True)], [(0.2, near, sharp, False)]]) == [[True], [False]], "another frame's ball"
     assert fills([[(0.1, here, sharp, True)], []], radius={}) == [[False], []]
+
+
+def test_a_revision_is_a_gap_where_the_track_missed_and_has_met_its_ball_since():
+    """FilterHistory.revise_until marks a frame a gap when the track met no object there and has met one at a later
+    frame still in the history: not a frame it was seen in, nor a miss with no hit after it (a ball gone)."""
+    history = FilterHistory()
+    F = np.eye(6)
+    hits = [True, False, False, True, False, False]
+    for k, hit in enumerate(hits):
+        history.append(k / 30, np.full(6, float(k)), np.eye(6), (np.full(6, float(k)), np.eye(6) * 2, F) if k else None, True, hit)
+    early = history.revise_until(2.5 / 30, True)  # frames 0, 1, 2: frame 3 met the ball since
+    assert [gap for *_, gap in early] == [False, True, True]
+    late = history.revise_until(4.5 / 30, True)  # frames 3 and 4: 4 missed, and nothing met since
+    assert [gap for *_, gap in late] == [False, False]
