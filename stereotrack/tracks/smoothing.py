@@ -51,6 +51,8 @@ def hindsight_fills(revised: list[tuple], targets: list[str], radius: dict[str, 
     """Per track (``targets``: its target's name), its revisions (FilterHistory.revise_until: each (time, position,
     covariance, gap)), the last field now whether the frame is to be written where the track reported nothing
     (TrackEstimate.smoothed). Never without the target's ball radius."""
+    if not any(gap for revisions in revised for *_, gap in revisions):  # most frames: nothing to fill
+        return revised
     held: dict[tuple[str, float], list[tuple[int, np.ndarray]]] = {}  # (target, time) -> (track, position) of each revision
     for i, (revisions, target) in enumerate(zip(revised, targets)):
         for time, position, *_ in revisions:
@@ -69,6 +71,8 @@ def hindsight_fills(revised: list[tuple], targets: list[str], radius: dict[str, 
 
 class FilterHistory:
     """One track's filter states over its last frames, oldest first."""
+
+    FIELDS = ("times", "x", "P", "xp", "Pp", "F", "linked", "kept", "hit")  # its arrays, one row per frame
 
     def __init__(self, capacity: int = 16):
         self.n = 0
@@ -136,12 +140,13 @@ class FilterHistory:
 
     def drop_oldest(self) -> None:
         n = self.n
-        for a in (self.times, self.x, self.P, self.xp, self.Pp, self.F, self.linked, self.kept, self.hit):
+        for name in self.FIELDS:
+            a = getattr(self, name)
             a[: n - 1] = a[1:n]
         self.n -= 1
 
     def _grow(self) -> None:
-        for name in ("times", "x", "P", "xp", "Pp", "F", "linked", "kept", "hit"):
+        for name in self.FIELDS:
             a = getattr(self, name)
             bigger = np.zeros((2 * len(a), *a.shape[1:]), a.dtype)
             bigger[: len(a)] = a
