@@ -105,7 +105,7 @@ SHADING_WAYS = 8  # a patch must hold gradient pointing in each of this many dir
 SHADING_DISC = 0.85  # a patch cut off a straight edge fills this share of its box's ellipse and lies this share or more inside it
 
 
-def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndarray:
+def shading(image: np.ndarray, target, near_px: float, far_px: float, crowded: bool = False) -> np.ndarray | tuple:
     """Where a white or grey ball (``target`` of every hue) shows by its shading alone: the pixels of ``image``
     (BGR uint8 on the background's grid) whose brightness changes by SHADING_MIN grey levels per pixel or more and
     whose colour could be the ball's (saturation at most the range's top, value at least SHADING_VALUE of its bottom),
@@ -115,7 +115,8 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     lines, networks and specks; a flat wall is empty. The room's straight edges are taken off first (a ball at rest
     against one would join it), and a patch must hold gradient pointing every way, as a ball's rim does. A patch too
     wide or not round may be a ball joined to something (a leg, a bin, another ball): the largest discs inside it are
-    tested again on their own. uint8 0/1."""
+    tested again on their own. uint8 0/1; with ``crowded``, also the patches that pass every test but being alone
+    (a ball in front of a plant, a table's leg: stereo_patches.paired keeps those another camera shows too)."""
     grey = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (3, 3), 0).astype(np.float32)
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
@@ -134,17 +135,19 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float) -> np.ndar
     fill[0] = False
     if fill.any():
         out[fill[labels]] = 1
-    balls, joined = _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px)
+    balls, busy, joined = _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px)
     # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
     # would put the ball nearer than it is.
-    balls = cv2.erode(balls, _CROSS)
+    balls, busy = cv2.erode(balls, _CROSS), cv2.erode(busy, _CROSS)
     # A ball at rest touching something of the map that is not straight (a table's leg, a bin, another ball) joins it
     # in a patch too wide or not round. The largest discs inside such patches (their distance transform's peaks), a
     # pixel inside them (that spread), are looked at again as patches of their own: a ball's is its own disc, an
     # edge's a few pixels wide.
+    # A disc cut out of a joined patch is placed to a cell, its patch's whole outline is not: crowded, it is left out
+    # (paired, its depth was a pixel of disparity off: white_ball tune seed 103, 0.18 m behind the ball).
     if joined is not None:
         balls |= _ball_patches(joined, shaded, edges, grey, direction, straight, near_px, far_px, _inner_discs(joined, far_px, near_px))[0]
-    return balls
+    return (balls, busy & (1 - balls)) if crowded else balls
 
 
 def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np.ndarray, np.ndarray]:
@@ -209,8 +212,9 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
     holes were filled), alone on something flat (``edges`` around them), with a lit side and a limb (``grey``), a rim
     pointing every way (``direction``), and a disc on their own where cut off a ``straight`` edge. ``discs``: instead
     of ``out``'s patches, discs drawn a pixel inside a patch (_inner_discs: their labels and stats): discs already, and
-    their ring starts beyond that pixel and the rim's spread. The patches kept, and those too wide or not round
-    (perhaps a ball joined to something; None when there is none, and for ``discs``), uint8 0/1 each."""
+    their ring starts beyond that pixel and the rim's spread. The patches kept, those that pass every test but being
+    alone, and those too wide or not round (perhaps a ball joined to something; None when there is none, and for
+    ``discs``), uint8 0/1 each."""
     h, w = out.shape
     drawn = discs is not None
     labels, stats = discs if drawn else cv2.connectedComponentsWithStats(out, connectivity=8)[1:3]
@@ -225,18 +229,19 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
     joined = joined.astype(np.uint8)[labels] if joined.any() and not drawn else None  # (discs are not searched again)
     keep &= area <= SHADING_SQUARE * bw * bh  # a disc fills pi / 4 of its box, a switch or a socket all of it
     if not keep.any():
-        return np.zeros_like(out), joined
+        return np.zeros_like(out), np.zeros_like(out), joined
     candidates = keep[labels]  # the pixels of the patches still in question (a few balls' worth)
     mine = labels[candidates]
     # a flat disc (a door's knob, painted) shows its edge only: its filled hole is most of it
     keep &= np.bincount(mine, weights=shaded[candidates], minlength=n) >= (SHADING_EDGED_DRAWN if drawn else SHADING_EDGED) * area
+    alone = np.ones(n, bool)
     if keep.any():  # alone on something flat (a shelf's books, a poster's shapes are among other edges) ...
         g = np.ceil(wide).astype(int)  # the ring around a patch's box, its half-width wide
         m = 2 if drawn else 0
         box = (np.maximum(x - m, 0), np.maximum(y - m, 0), np.minimum(x + bw + m, w), np.minimum(y + bh + m, h))
         grown = (np.maximum(x - g, 0), np.maximum(y - g, 0), np.minimum(x + bw + g, w), np.minimum(y + bh + g, h))
         ring = np.maximum((grown[2] - grown[0]) * (grown[3] - grown[1]) - (box[2] - box[0]) * (box[3] - box[1]), 1)
-        keep &= _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= (SHADING_BUSY_DRAWN if drawn else SHADING_BUSY) * ring
+        alone = _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= (SHADING_BUSY_DRAWN if drawn else SHADING_BUSY) * ring
     if keep.any():  # a sphere's lit side and its limb differ: a flat decal (a switch, a socket) is one grey
         shades = grey[candidates]
         keep &= _per_label(np.maximum, shades, mine, n, 0.0) - _per_label(np.minimum, shades, mine, n, 255.0) >= SHADING_CONTRAST
@@ -255,7 +260,7 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
         within = np.bincount(mine[inside], minlength=n)
         disc = (within >= SHADING_DISC * np.pi * a * b) & (area - within <= (1 - SHADING_DISC) * area)
         keep &= ~cut | disc
-    return keep.astype(np.uint8)[labels], joined
+    return (keep & alone).astype(np.uint8)[labels], (keep & ~alone).astype(np.uint8)[labels], joined
 
 
 def _straight(edges: np.ndarray, direction: np.ndarray, length: float) -> np.ndarray:

@@ -203,8 +203,6 @@ class SurfacePatches:
         """Per object: is it a patch of the surface it is seen on, or (``shapes``) no ball's shape in any view? Only an
         object still in every view (``still``) and two radii or more from every ball that has travelled (``travelled``,
         B x 3: a ball that moved is no scenery, wherever it came to rest) is judged; the others are not dropped."""
-        fresh = (now - self.times <= VERDICT_SECONDS) & (now >= self.times)
-        self.spots, self.verdicts, self.times = self.spots[fresh], self.verdicts[fresh], self.times[fresh]
         out = np.zeros(len(objects), bool)
         for k, o in enumerate(objects):
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
@@ -212,11 +210,17 @@ class SurfacePatches:
             if self.shapes and not ball_shaped(o.position, self.radius, views):
                 out[k] = True
                 continue
-            near = np.flatnonzero(np.linalg.norm(self.spots - o.position, axis=1) < SAME_SPOT * self.radius)
-            if len(near):
-                out[k] = self.verdicts[near[0]]
-                continue
-            out[k] = on_surface(o.position, self.radius, self.cameras, images)
-            self.spots = np.vstack([self.spots, o.position])
-            self.verdicts, self.times = np.r_[self.verdicts, out[k]], np.r_[self.times, now]
+            out[k] = self.on_surface(o.position, images, now)
         return out
+
+    def on_surface(self, position: np.ndarray, images: Sequence[np.ndarray], now: float) -> bool:
+        """``on_surface`` for a still thing at ``position``, or the verdict given at its spot in the last VERDICT_SECONDS."""
+        fresh = (now - self.times <= VERDICT_SECONDS) & (now >= self.times)
+        self.spots, self.verdicts, self.times = self.spots[fresh], self.verdicts[fresh], self.times[fresh]
+        near = np.flatnonzero(np.linalg.norm(self.spots - position, axis=1) < SAME_SPOT * self.radius)
+        if len(near):
+            return bool(self.verdicts[near[0]])
+        verdict = on_surface(position, self.radius, self.cameras, images)
+        self.spots = np.vstack([self.spots, position])
+        self.verdicts, self.times = np.r_[self.verdicts, verdict], np.r_[self.times, now]
+        return verdict

@@ -11,7 +11,7 @@ import os
 import time
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -23,6 +23,7 @@ from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_r
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, Faint, every_nth, every_nth_and_halved, on_grid
 from ..evidence.motion import SCALE, BackgroundModel, shading, still_only
+from ..evidence.stereo_patches import paired
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
@@ -94,6 +95,8 @@ class Tracker:
             t.name: np.array([self.bounds[o.name] for o in coloured if o.name != t.name], np.int64).reshape(-1, 7) for t in config.targets
         }
         self.last_time: float | None = None
+        # A white or grey target's shading is compared between cameras (stereo_patches.py) before its evidence is made
+        self._pairs_shading = bool(self.backgrounds) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
@@ -160,7 +163,14 @@ class Tracker:
         # every later stage. Cameras are independent, so they run side by side (the compiled and OpenCV
         # parts release the GIL).
         n = len(cams)
-        per_camera = list(self._pool.map(self._camera_evidence, range(n), pair.images, [held] * n, [confirmed] * n, colours or [None] * n))
+        if self._pairs_shading:  # two passes: a white ball's crowded patches are kept where another camera shows them too
+            motion = list(self._pool.map(self._camera_motion, range(n), pair.images, [held] * n, colours or [None] * n))
+            self._pair_crowded(motion, pair.images, now)
+            per_camera = list(self._pool.map(self._camera_views, range(n), motion, [confirmed] * n))
+        else:
+            per_camera = list(
+                self._pool.map(self._camera_evidence, range(n), pair.images, [held] * n, [confirmed] * n, colours or [None] * n)
+            )
         cmasks = [cm for cm, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
         for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
@@ -224,13 +234,39 @@ class Tracker:
         """Camera j's masks (``colours``: made ahead), and every target's evidence in it; with the ms each half took.
         ``held``: the balls whose discs the background may keep from learning (confirmed and coasting; a white target's
         tentative ones too)."""
-        s = self.config.tracker
-        cam, k = self.evidence_cameras[j], self.scales[j]
+        return self._camera_views(j, self._camera_motion(j, image, held, colours), confirmed)
+
+    def _camera_motion(self, j: int, image: np.ndarray, held: TrackedBalls, colours=None) -> _CameraMotion:
+        """Camera j's masks, its foreground and each white or grey target's shading in it (``_camera_evidence``'s
+        first half)."""
         t0 = time.perf_counter()
         small, cm, small_halved = colours if colours is not None else self._colours(j, image)
         foreground = self.backgrounds[j].update(small, held, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
-        shaded = self._shaded(j, small_halved, foreground)
+        shaded, crowded = self._shaded(j, small_halved, foreground)
+        return _CameraMotion(small, cm, small_halved, foreground, shaded, crowded, 1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+
+    def _pair_crowded(self, motion: list[_CameraMotion], images, now: float) -> None:
+        """Each white or grey target's crowded patches that another camera shows as the same ball (evidence/
+        stereo_patches.py), and that are no patch of the surface they are seen on (objects/surface.py, as still
+        objects are judged), join its shaded map, in every camera."""
+        s = self.config.tracker
+        for t in self.config.targets:
+            if t.name not in motion[0].crowded:
+                continue
+            alone = [m.shaded[t.name] & ~m.foreground for m in motion]  # (crowded only with a foreground: _shaded)
+            crowded = [m.crowded[t.name] for m in motion]
+            surface = self.surfaces.get(t.name)
+            scenery = (lambda point, judge=surface: judge.on_surface(point, images, now)) if surface is not None else None
+            for m, found in zip(motion, paired(crowded, alone, self.evidence_cameras, t.radius, s.d_min, s.d_max, SCALE, scenery)):
+                m.shaded[t.name] |= found
+
+    def _camera_views(self, j: int, motion: _CameraMotion, confirmed: TrackedBalls):
+        """Every target's evidence in camera j, from its masks and motion (``_camera_evidence``'s second half)."""
+        s = self.config.tracker
+        cam, k = self.evidence_cameras[j], self.scales[j]
+        small, cm, small_halved, foreground, shaded = motion.small, motion.masks, motion.small_halved, motion.foreground, motion.shaded
+        t1 = time.perf_counter()
         colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}
         views = {
             t.name: CameraEvidence.from_mask(
@@ -252,7 +288,7 @@ class Tracker:
             )
             for t in self.config.targets
         }
-        return cm, views, (1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+        return cm, views, (motion.masks_ms, motion.shading_ms + 1e3 * (time.perf_counter() - t1))
 
     def _off_surfaces(self, objects: list[Object3D], into: np.ndarray, views, images, balls: TrackedBalls, now: float) -> tuple:
         """The objects less those that are patches of the surface they are seen on (objects/surface.py: a still object
@@ -275,20 +311,24 @@ class Tracker:
             return None
         return Faint(bg.faint, small_halved, bg.behind, self.bounds[target.name], self.other_bounds[target.name])
 
-    def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> dict[str, np.ndarray]:
+    def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> tuple[dict, dict]:
         """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their
         shading added (motion.shading): a white ball at rest in a white room moves no more than the wall and has its
-        colour, and counts as moving where its shading shows. Empty without motion or such a target."""
+        colour, and counts as moving where its shading shows. And per such target, the still patches that would show a
+        ball but for what is around them (kept where another camera shows them too: ``_pair_crowded``). Empty without
+        motion or such a target."""
         if foreground is None or small_halved is None or not self.config.tracker.shading:
-            return {}
-        out = {}
+            return {}, {}
+        out, crowded = {}, {}
         cam = self.evidence_cameras[j]
         for t in self.config.targets:
             if t.any_hue:
                 seen = cam.apparent_radius(t.radius, 1.0) / SCALE  # the ball's apparent radius on the background's grid at 1 m
                 near, far = seen / max(self.config.tracker.d_min, SHADING_NEAR), seen / self.config.tracker.d_max
-                out[t.name] = cv2.bitwise_or(foreground, still_only(shading(small_halved, t, near, far), foreground))
-        return out
+                alone, busy = shading(small_halved, t, near, far, crowded=True)
+                out[t.name] = cv2.bitwise_or(foreground, still_only(alone, foreground))
+                crowded[t.name] = still_only(busy, foreground)
+        return out, crowded
 
     def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls, foreground: np.ndarray | None = None) -> tuple:
         """(p(ball | colour) per colour bin, the colours of moving things) for ``target`` in camera j, both as learnt
@@ -303,6 +343,20 @@ class Tracker:
         uv, front, depth = cam.view(mine.centres)
         model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]), foreground)
         return table, things
+
+
+@dataclass
+class _CameraMotion:
+    """A camera's first half of its evidence (Tracker._camera_motion), before the cameras' shading is compared."""
+
+    small: np.ndarray  # the frame on the evidence grid
+    masks: object  # its HSV and range masks (colour.camera_masks)
+    small_halved: np.ndarray | None  # the frame on the background's grid
+    foreground: np.ndarray | None  # what moves there (uint8 0/1); None without motion
+    shaded: dict  # per white or grey target, the foreground with its shading's patches (uint8 0/1)
+    crowded: dict  # ... and the patches that are not alone (Tracker._shaded)
+    masks_ms: float  # the masks and the foreground took
+    shading_ms: float  # the shading took
 
 
 SHADING_NEAR = 0.5  # metres: the nearest a white ball's shading map expects it (its holes are filled up to its lit centre there)
