@@ -244,7 +244,7 @@ class Tracker:
         foreground = self.backgrounds[j].update(small, held, small_halved) if self.backgrounds else None
         t1 = time.perf_counter()
         shaded, crowded = self._shaded(j, small_halved, foreground)
-        return _CameraMotion(small, cm, small_halved, foreground, shaded, crowded, 1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
+        return _CameraMotion(cm, small_halved, foreground, shaded, crowded, 1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1))
 
     def _pair_crowded(self, motion: list[_CameraMotion], images, now: float) -> None:
         """Each white or grey target's crowded patches that another camera shows as the same ball (evidence/
@@ -265,7 +265,7 @@ class Tracker:
         """Every target's evidence in camera j, from its masks and motion (``_camera_evidence``'s second half)."""
         s = self.config.tracker
         cam, k = self.evidence_cameras[j], self.scales[j]
-        small, cm, small_halved, foreground, shaded = motion.small, motion.masks, motion.small_halved, motion.foreground, motion.shaded
+        cm, small_halved, foreground, shaded = motion.masks, motion.small_halved, motion.foreground, motion.shaded
         t1 = time.perf_counter()
         colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}
         views = {
@@ -349,7 +349,6 @@ class Tracker:
 class _CameraMotion:
     """A camera's first half of its evidence (Tracker._camera_motion), before the cameras' shading is compared."""
 
-    small: np.ndarray  # the frame on the evidence grid
     masks: object  # its HSV and range masks (colour.camera_masks)
     small_halved: np.ndarray | None  # the frame on the background's grid
     foreground: np.ndarray | None  # what moves there (uint8 0/1); None without motion
