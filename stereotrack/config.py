@@ -70,8 +70,8 @@ class TrackerSettings:
     shading: bool = setting(
         True,
         "a white or grey target (one of every hue) also counts round shaded patches alone on something flat as moving, so a "
-        "ball at rest in a white room is seen, and such patches among other edges where another camera shows the same ball "
-        "(with motion only; 3-6 ms a camera at 640x480)",
+        "ball at rest in a white room is seen, and such patches among other edges where another camera shows the same ball, "
+        "clear of what it is seen on (tracker.surfaces) (with motion only; 3-6 ms a camera at 640x480)",
     )
     background_rate: float = setting(0.05, "how fast the background learns a change, share per frame", low=0.001, high=1.0)
     background_start: int = setting(

@@ -95,8 +95,9 @@ class Tracker:
             t.name: np.array([self.bounds[o.name] for o in coloured if o.name != t.name], np.int64).reshape(-1, 7) for t in config.targets
         }
         self.last_time: float | None = None
-        # A white or grey target's shading is compared between cameras (stereo_patches.py) before its evidence is made
-        self._pairs_shading = bool(self.backgrounds) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
+        # A white or grey target's shading is compared between cameras (stereo_patches.py) before its evidence is made,
+        # where the surface test can tell a pair that is a patch of what it is seen on
+        self._pairs_shading = bool(self.surfaces) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
@@ -256,8 +257,10 @@ class Tracker:
                 continue
             alone = [m.shaded[t.name] & ~m.foreground for m in motion]  # (crowded only with a foreground: _shaded)
             crowded = [m.crowded[t.name] for m in motion]
-            surface = self.surfaces.get(t.name)
-            scenery = (lambda point, judge=surface: judge.on_surface(point, images, now)) if surface is not None else None
+
+            def scenery(point, judge=self.surfaces[t.name]):
+                return judge.on_surface(point, images, now)
+
             for m, found in zip(motion, paired(crowded, alone, self.evidence_cameras, t.radius, s.d_min, s.d_max, SCALE, scenery)):
                 m.shaded[t.name] |= found
 
