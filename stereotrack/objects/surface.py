@@ -54,6 +54,14 @@ SAME_SPOT = 0.5
 # the depth its two views give it). A ball at rest before things of its colour merges with them and is lost (hue_wall
 # tune seeds 90, 106, 154; static_props 13): a size of 0.4 kept those and lost half the gain (static_props 0-159 +3.01
 # against +5.27, hue_wall +2.31 against +3.00), and letting a blob twice a ball's size say nothing +2.70 on hue_wall.
+# ... and is shaded: lit on one side, darker towards its limb, with a highlight, where a round sticker or a painted dot
+# of the ball's colour is one flat colour. A still thing whose disc's core (FLAT_CORE of its apparent radius) spans
+# less than FLAT_SPREAD levels of value (HSV's V: 90th less 10th percentile) in every view that holds FLAT_MIN_PX
+# or more of it is no ball. static_props tune seeds 0-159, tracked rows every 10th frame: on a ball 17-120 (1st
+# percentile 39, none under 15), on nothing 6-8 on stickers on a wall (seeds 1, 76, 93) and 28-87 on other things.
+FLAT_SPREAD = 12.0
+FLAT_CORE = 0.7
+FLAT_MIN_PX = 2.0
 ROUND_FILL_MAX = 1.15
 ROUND_AXES = 0.7
 ROUND_SIZE = 0.25
@@ -169,6 +177,32 @@ def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvide
     return False
 
 
+def flat(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
+    """Is a ball at ``position`` one flat colour in every view that shows enough of it (FLAT_SPREAD, FLAT_MIN_PX)? Not
+    when no view does."""
+    told = False
+    for cam, image in zip(cameras, images):
+        uv, front, z = cam.view(np.asarray(position, float)[None])
+        r = FLAT_CORE * float(cam.apparent_radius(radius, z[0])) if front[0] else 0.0
+        if r < FLAT_MIN_PX or not np.isfinite(uv).all():
+            continue
+        (u, v), h, w = uv[0], image.shape[0], image.shape[1]
+        x0, x1, y0, y1 = max(int(u - r), 0), min(int(u + r) + 1, w), max(int(v - r), 0), min(int(v + r) + 1, h)
+        if x1 - x0 < 2 or y1 - y0 < 2:
+            continue
+        ys, xs = np.mgrid[y0:y1, x0:x1]
+        core = (xs - u) ** 2 + (ys - v) ** 2 <= r * r
+        patch = image[y0:y1, x0:x1]
+        value = (patch.max(axis=2) if patch.ndim == 3 else patch)[core]  # HSV's V: the largest channel
+        if value.size < 4:
+            continue
+        low, high = np.percentile(value, [10, 90])
+        if high - low >= FLAT_SPREAD:
+            return False
+        told = True
+    return told
+
+
 def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
     """Is no pixel of the moving map in the box of a ball's disc at ``position`` in any view? (False without motion.)"""
     for v in views:
@@ -207,7 +241,7 @@ class SurfacePatches:
         for k, o in enumerate(objects):
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
                 continue
-            if self.shapes and not ball_shaped(o.position, self.radius, views):
+            if self.shapes and (not ball_shaped(o.position, self.radius, views) or flat(o.position, self.radius, self.cameras, images)):
                 out[k] = True
                 continue
             out[k] = self.on_surface(o.position, images, now)
