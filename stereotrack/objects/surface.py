@@ -8,7 +8,9 @@ better there than at any depth two ball radii (in pixels of disparity) or more a
 on. A uniform surround matches at every depth alike (no verdict); a periodic one at several (no verdict either).
 
 Before that, a still object of a coloured ball must show as a ball (``ball_shaped``): in some view its blob a whole disc
-of the size a ball has at the depth the views give it. A bottle, a flag or a sign of the ball's colour is not one.
+of the size a ball has at the depth the views give it. A bottle, a flag or a sign of the ball's colour is not one. And
+it must be shaded (``flat``): a round sticker of the ball's colour on a plain wall, whose surround tells nothing, is one
+flat colour in every view.
 """
 
 from __future__ import annotations
@@ -56,9 +58,10 @@ SAME_SPOT = 0.5
 # against +5.27, hue_wall +2.31 against +3.00), and letting a blob twice a ball's size say nothing +2.70 on hue_wall.
 # ... and is shaded: lit on one side, darker towards its limb, with a highlight, where a round sticker or a painted dot
 # of the ball's colour is one flat colour. A still thing whose disc's core (FLAT_CORE of its apparent radius) spans
-# less than FLAT_SPREAD levels of value (HSV's V: 90th less 10th percentile) in every view that holds FLAT_MIN_PX
-# or more of it is no ball. static_props tune seeds 0-159, tracked rows every 10th frame: on a ball 17-120 (1st
-# percentile 39, none under 15), on nothing 6-8 on stickers on a wall (seeds 1, 76, 93) and 28-87 on other things.
+# less than FLAT_SPREAD levels of value (HSV's V: 90th less 10th percentile) in every view where that core is FLAT_MIN_PX
+# pixels in radius or more is no ball (a view that shows it smaller tells nothing). static_props tune seeds 0-159,
+# tracked rows every 10th frame: on a ball 17-120 (1st percentile 39, none under 15), on nothing 6-8 on stickers on a
+# wall (seeds 1, 76, 93) and 28-87 on other things.
 FLAT_SPREAD = 12.0
 FLAT_CORE = 0.7
 FLAT_MIN_PX = 2.0
