@@ -179,3 +179,5 @@ def test_a_still_thing_of_one_flat_colour_in_every_view_is_no_ball():
     assert not flat(at, tiny, rig.cameras, _draw(rig, False, painted=at[[0, 2]], radius=tiny))
     half = [sticker[0], ball[1]]  # flat in one view only: a ball (shaded where it shows)
     assert not flat(at, RADIUS, rig.cameras, half)
+    grey = [cv2.cvtColor(i, cv2.COLOR_BGR2GRAY) for i in sticker + ball]  # greyscale cameras: the grey level is the value
+    assert flat(at, RADIUS, rig.cameras, grey[:2]) and not flat(at, RADIUS, rig.cameras, grey[2:])

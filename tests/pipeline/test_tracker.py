@@ -293,6 +293,7 @@ def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, 
 
     import stereotrack.pipeline.tracker as tracker_module
 
+    tracker_module.warm_up()  # its own scene (and a shading map) first: the calls counted are the tracker's
     calls = []
     real = tracker_module.shading
     monkeypatch.setattr(tracker_module, "shading", lambda *a, **k: calls.append(a[1].name) or real(*a, **k))
@@ -301,6 +302,25 @@ def test_the_shading_setting_builds_a_white_targets_shading_map_or_not(shading, 
     tracker = Tracker(rig, config)
     _noise_frames(tracker, rig, 3)
     assert calls == (["white"] * len(rig.cameras) * 3 if shading else []), calls
+
+
+@pytest.mark.parametrize("surfaces", [True, False])
+def test_a_white_targets_crowded_patches_are_paired_only_where_the_surface_test_can_judge_the_pairs(surfaces, monkeypatch):
+    """Two views agree on any real thing: a white ball's crowded shading patches (evidence/stereo_patches.py) are paired
+    every frame with tracker.surfaces on, each pair judged by it; with it off, never (nothing could tell a pale
+    piece of a poster from a ball)."""
+    from scene_helpers import default_rig
+
+    import stereotrack.pipeline.tracker as tracker_module
+
+    tracker_module.warm_up()  # its own scene first: the calls counted are the tracker's
+    calls = []
+    real = tracker_module.paired
+    monkeypatch.setattr(tracker_module, "paired", lambda *a: calls.append(a[-1] is not None) or real(*a))
+    config = _white_and_orange(surfaces=surfaces, background_start=0)
+    rig = default_rig()
+    _noise_frames(Tracker(rig, config), rig, 3)
+    assert calls == ([True] * 3 if surfaces else []), calls
 
 
 def test_bench_in_turn_runs_the_configs_in_turn_and_gives_each_figures_median_over_rounds(monkeypatch):
