@@ -147,7 +147,7 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float, crowded: b
     # (paired, its depth was a pixel of disparity off: white_ball tune seed 103, 0.18 m behind the ball).
     if joined is not None:
         balls |= _ball_patches(joined, shaded, edges, grey, direction, straight, near_px, far_px, _inner_discs(joined, far_px, near_px))[0]
-    return (balls, busy & (1 - balls)) if crowded else balls
+    return (balls, busy) if crowded else balls  # (apart: a patch is kept or crowded, a joined one neither)
 
 
 def _inner_discs(patches: np.ndarray, far_px: float, near_px: float) -> tuple[np.ndarray, np.ndarray]:

@@ -81,8 +81,9 @@ def paired(
                 expected = cam.apparent_radius(radius, depth)
                 ok &= front & (depth >= d_min) & (depth <= d_max) & (off <= 0.5 * (PAIR_CELLS * scale + PAIR_RADII * radii[k]))
                 ok &= (radii[k] <= SIZE_RATIO * expected) & (expected <= SIZE_RATIO * radii[k])
-            for k in np.flatnonzero(ok) if scenery is not None else ():
-                ok[k] = not scenery(points[k])
+            if scenery is not None:
+                for k in np.flatnonzero(ok):
+                    ok[k] = not scenery(points[k])
             kept[i][ki[a[ok & (ki[a] >= 0)]]] = True
             kept[j][kj[b[ok & (kj[b] >= 0)]]] = True
     return [np.isin(f[0], np.flatnonzero(k) + 1).astype(np.uint8) for f, k in zip(found, kept)]

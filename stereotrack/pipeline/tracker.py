@@ -19,7 +19,7 @@ import numpy as np
 from ..camera import Camera, Rig, intrinsics_from_fov, look_at
 from ..config import Config, Target
 from ..errors import StereotrackError
-from ..evidence.colour import camera_masks, motion_range, range_bounds, streak_range
+from ..evidence.colour import CameraMasks, camera_masks, motion_range, range_bounds, streak_range
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, Faint, every_nth, every_nth_and_halved, on_grid
 from ..evidence.motion import SCALE, BackgroundModel, shading, still_only
@@ -352,7 +352,7 @@ class Tracker:
 class _CameraMotion:
     """A camera's first half of its evidence (Tracker._camera_motion), before the cameras' shading is compared."""
 
-    masks: object  # its HSV and range masks (colour.camera_masks)
+    masks: CameraMasks  # its HSV and range masks
     small_halved: np.ndarray | None  # the frame on the background's grid
     foreground: np.ndarray | None  # what moves there (uint8 0/1); None without motion
     shaded: dict  # per white or grey target, the foreground with its shading's patches (uint8 0/1)
