@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
-from ..evidence.colour import box_counts
+from ..config import Target
+from ..evidence.colour import box_counts, target_mask, to_hsv
 from ..evidence.gather import CameraEvidence
 from .shapes import ROUND_FILL, ROUND_MIN_PX
 
@@ -58,13 +59,19 @@ SAME_SPOT = 0.5
 # against +5.27, hue_wall +2.31 against +3.00), and letting a blob twice a ball's size say nothing +2.70 on hue_wall.
 # ... and is shaded: lit on one side, darker towards its limb, with a highlight, where a round sticker or a painted dot
 # of the ball's colour is one flat colour. A still thing whose disc's core (FLAT_CORE of its apparent radius) spans
-# less than FLAT_SPREAD levels of value (HSV's V: 90th less 10th percentile) in every view where that core is FLAT_MIN_PX
-# pixels in radius or more is no ball (a view that shows it smaller tells nothing). static_props tune seeds 0-159,
-# tracked rows every 10th frame: on a ball 17-120 (1st percentile 39, none under 15), on nothing 6-8 on stickers on a
-# wall (seeds 1, 76, 93) and 28-87 on other things.
-FLAT_SPREAD = 12.0
+# less than FLAT_SPREAD levels of value (HSV's V: 90th less 10th percentile) in every view is no ball. Only the core's
+# pixels in the target's typed range whose eight neighbours are too count: a small sticker that is no disc has wall in
+# the core, and its rim blends into the wall (static_props tune seed 300: an orange arrow on a purple wall spans 34-50
+# over the whole core, 13-19 over its own pixels). The typed range, not the colour model's mask: that one leaves out a
+# ball's highlight and limb, where its shading shows (a ball at rest before a wall of its hue, hue_wall tune seed 91:
+# 27-43 over the mask's pixels, 42-48 over the range's). A view that shows the core under FLAT_MIN_PX pixels in radius,
+# or fewer than FLAT_MIN_COUNT such pixels, tells nothing. static_props tune seeds 240-319, tracked rows every 10th
+# frame, the larger of the views: on a ball 34 or more (1737 rows; 5th percentile 44), on stickers 8-11 (seed 265: a
+# violet shape on a beige wall) and 13-19 (seed 300).
+FLAT_SPREAD = 24.0
 FLAT_CORE = 0.7
 FLAT_MIN_PX = 2.0
+FLAT_MIN_COUNT = 4
 ROUND_FILL_MAX = 1.15
 ROUND_AXES = 0.7
 ROUND_SIZE = 0.25
@@ -180,9 +187,12 @@ def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvide
     return False
 
 
-def flat(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
-    """Is a ball at ``position`` one flat colour in every view that shows enough of it (FLAT_SPREAD, FLAT_MIN_PX)? Not
-    when no view does."""
+def flat(
+    position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray], colour: Target | None = None
+) -> bool:
+    """Is a ball at ``position`` one flat colour in every view that shows enough of it (FLAT_SPREAD, FLAT_MIN_PX,
+    FLAT_MIN_COUNT)? Not when no view does. With ``colour`` (the target), only the core's pixels in its range whose eight
+    neighbours are too count; without, every pixel of the core."""
     told = False
     for cam, image in zip(cameras, images):
         uv, front, z = cam.view(np.asarray(position, float)[None])
@@ -195,10 +205,15 @@ def flat(position: np.ndarray, radius: float, cameras: Sequence[Camera], images:
             continue
         ys, xs = np.mgrid[y0:y1, x0:x1]
         core = (xs - u) ** 2 + (ys - v) ** 2 <= r * r
+        if colour is not None and image.ndim == 3:  # the range's pixels away from their rim (the image's border counts as in it)
+            m0, m1, n0, n1 = max(y0 - 1, 0), min(y1 + 1, h), max(x0 - 1, 0), min(x1 + 1, w)
+            in_range = target_mask(to_hsv(np.ascontiguousarray(image[m0:m1, n0:n1])), colour)
+            inner = cv2.erode(in_range, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+            core &= inner[y0 - m0 : y1 - m0, x0 - n0 : x1 - n0] > 0
+        if core.sum() < FLAT_MIN_COUNT:
+            continue
         patch = image[y0:y1, x0:x1]
         value = (patch.max(axis=2) if patch.ndim == 3 else patch)[core]  # HSV's V: the largest channel
-        if value.size < 4:
-            continue
         low, high = np.percentile(value, [10, 90])
         if high - low >= FLAT_SPREAD:
             return False
@@ -224,12 +239,14 @@ def still(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) 
 class SurfacePatches:
     """One target's still objects judged patches of a surface or not (``on_surface``), each verdict remembered for
     VERDICT_SECONDS while an object stays at its spot, and, with ``shapes``, whether they show as a ball at all
-    (``ball_shaped``): a stage object the tracker keeps, one per target."""
+    (``ball_shaped``, ``flat``: shaded over its pixels of ``colour``, the target's range, when given): a stage object
+    the tracker keeps, one per target."""
 
-    def __init__(self, radius: float, cameras: Sequence[Camera], shapes: bool = True):
+    def __init__(self, radius: float, cameras: Sequence[Camera], shapes: bool = True, colour: Target | None = None):
         self.radius = radius
         self.cameras = tuple(cameras)
         self.shapes = shapes
+        self.colour = colour
         self.spots = np.zeros((0, 3))  # K x 3: where objects were judged ...
         self.verdicts = np.zeros(0, bool)  # ... on a surface or not ...
         self.times = np.zeros(0)  # ... and when
@@ -244,7 +261,9 @@ class SurfacePatches:
         for k, o in enumerate(objects):
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
                 continue
-            if self.shapes and (not ball_shaped(o.position, self.radius, views) or flat(o.position, self.radius, self.cameras, images)):
+            if self.shapes and (
+                not ball_shaped(o.position, self.radius, views) or flat(o.position, self.radius, self.cameras, images, self.colour)
+            ):
                 out[k] = True
                 continue
             out[k] = self.on_surface(o.position, images, now)

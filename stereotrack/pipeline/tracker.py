@@ -70,7 +70,9 @@ class Tracker:
         # The surface test judges still objects, and without motion (no backgrounds) nothing is still: no test then. A
         # white or grey ball's blob at rest is its shading's patch (motion.shading), not its outline: no shape test for it
         self.surfaces = (
-            {t.name: SurfacePatches(t.radius, rig.cameras, shapes=not t.any_hue) for t in config.targets} if s.surfaces and s.motion else {}
+            {t.name: SurfacePatches(t.radius, rig.cameras, shapes=not t.any_hue, colour=t) for t in config.targets}
+            if s.surfaces and s.motion
+            else {}
         )
         # Evidence on a coarser grid where balls span many pixels (config: evidence_scale); the background model
         # reads that grid's image too (and keeps half its size, motion.py).

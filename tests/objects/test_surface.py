@@ -4,6 +4,7 @@ import cv2
 import numpy as np
 from scene_helpers import RADIUS, default_rig
 
+from stereotrack.config import Target
 from stereotrack.evidence.blobs import find_blobs
 from stereotrack.evidence.colour import integral_image
 from stereotrack.evidence.gather import CameraEvidence
@@ -11,6 +12,7 @@ from stereotrack.objects.surface import SURFACE_RATIO, VERDICT_SECONDS, SurfaceP
 from stereotrack.results import Object3D
 
 WALL_Y = 3.0  # metres ahead of the rig
+PINK = Target("pink", (158, 80, 80), (178, 255, 255), RADIUS)  # the range a user would type for _draw's pink
 
 
 def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS):
@@ -172,12 +174,29 @@ def test_a_still_thing_of_one_flat_colour_in_every_view_is_no_ball():
     thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
     views = _shapes_views(rig, at, "disc", 1.0)
     sticker, ball = _draw(rig, False, painted=at[[0, 2]]), _draw(rig, False, ball=at)
-    assert flat(at, RADIUS, rig.cameras, sticker) and not flat(at, RADIUS, rig.cameras, ball)
-    assert SurfacePatches(RADIUS, rig.cameras).drop(thing, views, sticker, np.zeros((0, 3)), 0.0).tolist() == [True]
-    assert SurfacePatches(RADIUS, rig.cameras).drop(thing, views, ball, np.zeros((0, 3)), 0.0).tolist() == [False]
-    tiny = RADIUS * 0.15  # under FLAT_MIN_PX pixels of core at 3 m in both views
-    assert not flat(at, tiny, rig.cameras, _draw(rig, False, painted=at[[0, 2]], radius=tiny))
-    half = [sticker[0], ball[1]]  # flat in one view only: a ball (shaded where it shows)
-    assert not flat(at, RADIUS, rig.cameras, half)
+    for colour in (None, PINK):
+        assert flat(at, RADIUS, rig.cameras, sticker, colour) and not flat(at, RADIUS, rig.cameras, ball, colour)
+        patches = SurfacePatches(RADIUS, rig.cameras, colour=colour)
+        assert patches.drop(thing, views, sticker, np.zeros((0, 3)), 0.0).tolist() == [True]
+        assert patches.drop(thing, views, ball, np.zeros((0, 3)), 1.0).tolist() == [False]
+        tiny = RADIUS * 0.15  # under FLAT_MIN_PX pixels of core at 3 m in both views
+        assert not flat(at, tiny, rig.cameras, _draw(rig, False, painted=at[[0, 2]], radius=tiny), colour)
+        half = [sticker[0], ball[1]]  # flat in one view only: a ball (shaded where it shows)
+        assert not flat(at, RADIUS, rig.cameras, half, colour)
     grey = [cv2.cvtColor(i, cv2.COLOR_BGR2GRAY) for i in sticker + ball]  # greyscale cameras: the grey level is the value
-    assert flat(at, RADIUS, rig.cameras, grey[:2]) and not flat(at, RADIUS, rig.cameras, grey[2:])
+    assert flat(at, RADIUS, rig.cameras, grey[:2], PINK) and not flat(at, RADIUS, rig.cameras, grey[2:], PINK)
+
+
+def test_a_flat_sticker_is_told_by_its_own_pixels_not_by_the_wall_its_core_takes_in():
+    """A sticker that is no disc (static_props tune seed 300: an orange arrow on a purple wall) has the wall inside the
+    core of the disc its centroid gives it, and its rim blends into the wall: over all the core's pixels its value spans
+    the wall's and its own. Only the pixels in the target's range away from their rim count: those are one flat colour
+    on a sticker and shaded on a ball, wherever the core falls on either."""
+    rig = default_rig()
+    at = np.array([0.1, WALL_Y, 0.05])
+    off = at + [0.5 * RADIUS, 0.0, 0.0]  # a centroid half a radius off the painted disc's centre: the core takes in wall
+    soft = [cv2.GaussianBlur(i, (5, 5), 1.0) for i in _draw(rig, False, painted=at[[0, 2]])]  # a rim blended with the wall
+    ball = _draw(rig, False, ball=at)
+    assert flat(off, RADIUS, rig.cameras, soft, PINK)
+    assert not flat(off, RADIUS, rig.cameras, ball, PINK)
+    assert not flat(off, RADIUS, rig.cameras, soft)  # every pixel of the core counted: the wall and the rim look like shading
