@@ -139,7 +139,10 @@ def run(args) -> int:
             + (f" --categories {' '.join(cats)}" if args.categories else "")
             + (f" --methods {' '.join(args.methods)}" if tuple(args.methods) != METHODS else "")
             + f" --docs {args.docs}` on {datetime.now(UTC):%Y-%m-%d}: {len(jobs)} scenes ({rendered} rendered) in {minutes:.0f} min "
-            f"with {args.jobs} job(s) on the shared 2-core machine.",
+            f"with {args.jobs} job(s) on the shared 2-core machine (CPU: {host_cpu()}). Another CPU can score the same code on the "
+            "same scenes differently: vectorised arithmetic rounds differently there, and a tracker's particles part ways "
+            "from the first differing bit (fast_ball's median was 0.865 on one machine and 0.934 on the next, code unchanged). "
+            "Compare rows measured on one machine.",
             f"Report seeds {seeds('report', 1)[0]} to {seeds('report', args.seeds)[-1]} of each category; tuning uses other seeds "
             "(`--set tune`). The target is the range a user would type for the ball; MOTA as `stereotrack eval` (0.1 m gate; "
             "a ball that fewer than two cameras see is optional).",
@@ -155,6 +158,18 @@ def run(args) -> int:
         replace_section(args.docs, "stress", "\n".join(body))
         info(f"table written to {args.docs} (section 'stress')")
     return 0
+
+
+def host_cpu() -> str:
+    """The CPU the scores were measured on, as the tracker's compiler names it (numba's LLVM), e.g. 'sapphirerapids'."""
+    try:
+        from llvmlite import binding
+
+        return binding.get_host_cpu_name()
+    except Exception:  # noqa: BLE001 (a name in a table header: never worth failing the run)
+        import platform
+
+        return platform.machine() or "unknown"
 
 
 # --------------------------------------------------------------------------- one scene
