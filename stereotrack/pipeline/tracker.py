@@ -319,9 +319,9 @@ class Tracker:
     def _shaded(self, j: int, small_halved: np.ndarray | None, foreground: np.ndarray | None) -> tuple[dict, dict]:
         """Per target of every hue (a white or grey ball), camera j's foreground with the pixels that show a ball by their
         shading added (motion.shading): a white ball at rest in a white room moves no more than the wall and has its
-        colour, and counts as moving where its shading shows. And per such target, the still patches that would show a
-        ball but for what is around them (kept where another camera shows them too: ``_pair_crowded``). Empty without
-        motion or such a target."""
+        colour, and counts as moving where its shading shows. And per such target, when the cameras' shading is paired,
+        the still patches that would show a ball but for what is around them (kept where another camera shows them
+        too: ``_pair_crowded``). Empty without motion or such a target."""
         if foreground is None or small_halved is None or not self.config.tracker.shading:
             return {}, {}
         out, crowded = {}, {}
@@ -330,9 +330,12 @@ class Tracker:
             if t.any_hue:
                 seen = cam.apparent_radius(t.radius, 1.0) / SCALE  # the ball's apparent radius on the background's grid at 1 m
                 near, far = seen / max(self.config.tracker.d_min, SHADING_NEAR), seen / self.config.tracker.d_max
-                alone, busy = shading(small_halved, t, near, far, crowded=True)
+                if self._pairs_shading:  # its crowded patches are compared between cameras (_pair_crowded)
+                    alone, busy = shading(small_halved, t, near, far, crowded=True)
+                    crowded[t.name] = still_only(busy, foreground)
+                else:
+                    alone = shading(small_halved, t, near, far)
                 out[t.name] = cv2.bitwise_or(foreground, still_only(alone, foreground))
-                crowded[t.name] = still_only(busy, foreground)
         return out, crowded
 
     def _colour_table(self, target, j: int, cm, confirmed: TrackedBalls, foreground: np.ndarray | None = None) -> tuple:
