@@ -6,19 +6,28 @@ from scene_helpers import RADIUS, default_rig
 
 from stereotrack.config import Target
 from stereotrack.evidence.blobs import find_blobs
-from stereotrack.evidence.colour import integral_image
+from stereotrack.evidence.colour import integral_image, target_mask, to_hsv
 from stereotrack.evidence.gather import CameraEvidence
-from stereotrack.objects.surface import SURFACE_RATIO, VERDICT_SECONDS, SurfacePatches, ball_shaped, flat, on_surface, surface_ratio
+from stereotrack.objects.surface import (
+    SURFACE_RATIO,
+    VERDICT_SECONDS,
+    SurfacePatches,
+    ball_shaped,
+    flat,
+    on_surface,
+    rimmed,
+    surface_ratio,
+)
 from stereotrack.results import Object3D
 
 WALL_Y = 3.0  # metres ahead of the rig
 PINK = Target("pink", (158, 80, 80), (178, 255, 255), RADIUS)  # the range a user would type for _draw's pink
 
 
-def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS):
-    """Each camera's image of a wall at WALL_Y (a random pattern of 3 cm squares, or flat grey), with a pink ball before it
-    at ``ball`` (lit from above and in front: shaded) or a pink disc painted on it centred at ``painted`` (x, z, one
-    flat colour), ray-traced pixel by pixel."""
+def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS, wall=(128, 128, 128)):
+    """Each camera's image of a wall at WALL_Y (a random pattern of 3 cm squares, or flat, of colour ``wall``, BGR), with a
+    pink ball before it at ``ball`` (lit from above and in front: shaded) or a pink disc painted on it centred at
+    ``painted`` (x, z, one flat colour), ray-traced pixel by pixel."""
     rng = np.random.default_rng(3)
     pattern = rng.integers(40, 220, (200, 200)).astype(np.uint8)
     pink = np.array([180, 105, 255], np.uint8)  # BGR
@@ -29,8 +38,10 @@ def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS):
         t = (WALL_Y - o[:, 1]) / d[:, 1]
         hit = o + t[:, None] * d
         cells = np.clip(((hit[:, [0, 2]] + 3.0) / 0.03).astype(int), 0, 199)
-        grey = pattern[cells[:, 0], cells[:, 1]] if wall_texture else np.full(len(t), 128, np.uint8)
-        image = np.repeat(grey[:, None], 3, axis=1)
+        if wall_texture:
+            image = np.repeat(pattern[cells[:, 0], cells[:, 1]][:, None], 3, axis=1)
+        else:
+            image = np.tile(np.asarray(wall, np.uint8), (len(t), 1))
         if painted is not None:
             image[np.hypot(hit[:, 0] - painted[0], hit[:, 2] - painted[1]) < radius] = pink
         if ball is not None:
@@ -200,3 +211,29 @@ def test_a_flat_sticker_is_told_by_its_own_pixels_not_by_the_wall_its_core_takes
     assert flat(off, RADIUS, rig.cameras, soft, PINK)
     assert not flat(off, RADIUS, rig.cameras, ball, PINK)
     assert not flat(off, RADIUS, rig.cameras, soft)  # every pixel of the core counted: the wall and the rim look like shading
+
+
+def test_a_ball_at_rest_before_a_wall_of_its_hue_is_told_by_its_outline_where_no_blob_is_its_disc():
+    """A ball at rest before a wall of its hue merges with it in the mask: the one blob is the wall, no ball's disc, and
+    the blob test alone dropped the ball for the whole scene (hue_wall tune seeds 163, 145). Its shading steps from the
+    wall's colour all round its outline (``rimmed``), where a patch of the plain wall steps nowhere. A thing of the ball's
+    colour alone on a grey wall steps all round too, but its own blob judged it, and the outline does not overrule that."""
+    rig = default_rig()
+    at = np.array([0.1, 1.5, 0.05])
+    thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+    patches, nothing_travelled = SurfacePatches(RADIUS, rig.cameras, colour=PINK), np.zeros((0, 3))
+    pale_pink = (190, 140, 240)  # BGR: hue 165, saturation 106, in PINK's range
+    for ball, kept in [(at, True), (None, False)]:
+        images = _draw(rig, False, ball=ball, wall=pale_pink)
+        views = []
+        for cam, image in zip(rig.cameras, images):
+            mask = target_mask(to_hsv(image), PINK)
+            assert mask.mean() > 0.9  # the ball and the wall: one blob
+            views.append(CameraEvidence.from_mask(cam, mask, foreground=np.zeros((cam.height // 2, cam.width // 2), np.uint8)))
+        assert not ball_shaped(at, RADIUS, views)
+        assert rimmed(at, RADIUS, rig.cameras, images, PINK) is kept
+        assert patches.drop(thing, views, images, nothing_travelled, 0.0).tolist() == [not kept]
+    # A shaded ball before a grey wall shows its outline, but not before things of its colour: a box's blob stays no ball
+    grey_wall = _draw(rig, False, ball=at)
+    assert not rimmed(at, RADIUS, rig.cameras, grey_wall, PINK)
+    assert patches.drop(thing, _shapes_views(rig, at, "box"), grey_wall, nothing_travelled, 0.0).tolist() == [True]
