@@ -20,6 +20,13 @@ import numpy as np
 
 from .errors import StereotrackError
 
+NO_BALL = "n/a (no ball seen by two cameras)"
+
+
+def figure(value: float, fmt: str, missing: str = "n/a", unit: str = "") -> str:
+    """A score's figure as text: ``missing`` where it is undefined (NaN: nothing to score it against)."""
+    return missing if value != value else f"{value:{fmt}}{unit}"
+
 
 @dataclass(frozen=True)
 class Evaluation:
@@ -42,15 +49,15 @@ class Evaluation:
 
     def table(self) -> str:
         rows = [
-            ("MOTA", f"{self.mota:.3f}"),
-            ("MOTP", f"{self.motp_mm:.1f} mm"),
-            ("recall", f"{self.recall:.3f}"),
-            ("precision", f"{self.precision:.3f}"),
+            ("MOTA", figure(self.mota, ".3f", NO_BALL)),
+            ("MOTP", figure(self.motp_mm, ".1f", "n/a", " mm")),
+            ("recall", figure(self.recall, ".3f", NO_BALL)),
+            ("precision", figure(self.precision, ".3f")),
             ("id switches", str(self.id_switches)),
             ("misses", str(self.misses)),
             ("false positives", str(self.false_positives)),
-            ("mean 3D error", f"{self.mean_error_mm:.1f} mm"),
-            ("p95 3D error", f"{self.p95_error_mm:.1f} mm"),
+            ("mean 3D error", figure(self.mean_error_mm, ".1f", "n/a", " mm")),
+            ("p95 3D error", figure(self.p95_error_mm, ".1f", "n/a", " mm")),
             ("frames / true ball-frames", f"{self.frames} / {self.truth_objects}"),
             ("gate", f"{self.gate_m:g} m"),
         ]
@@ -112,16 +119,17 @@ def evaluate(
         v = float(s[k].iloc[0])
         return v if np.isfinite(v) else 0.0
 
+    truth_objects = int(val("num_objects"))
     return Evaluation(
         frames=int(len(frames)),
-        truth_objects=int(val("num_objects")),
+        truth_objects=truth_objects,
         matches=int(val("num_matches")),
         misses=int(val("num_misses")),
         false_positives=int(val("num_false_positives")),
         id_switches=int(val("num_switches")),
-        mota=val("mota"),
+        mota=val("mota") if truth_objects else float("nan"),  # 0 / 0: no ball two cameras see, no tracker's failure
         motp_mm=1e3 * val("motp"),
-        recall=val("recall"),
+        recall=val("recall") if truth_objects else float("nan"),
         precision=val("precision"),
         mean_error_mm=1e3 * float(err.mean()) if len(err) else float("nan"),
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),

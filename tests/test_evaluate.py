@@ -55,3 +55,17 @@ def test_a_ball_fewer_than_two_cameras_see_is_optional():
     stray = np.vstack([coasting, [[12, 0, 7, 2.0, 2.0, 2.0], [12, 0, 8, 0.52, 0.0, 1.5]]])
     ev = evaluate(stray, truth, views=views)
     assert ev.false_positives == 2  # the far one, and the second track on the hidden ball
+
+
+def test_with_no_ball_two_cameras_see_mota_and_recall_are_undefined_not_zero():
+    """0 / 0: a recording whose balls no two cameras see (props hide them) scored MOTA 0.000, as a tracker that lost every
+    ball would. It has no MOTA or recall (NaN, "n/a" in the table); its false positives still count."""
+    truth = truth_rows(10)
+    views = np.ones(len(truth), int)  # every ball in one camera only: optional
+    stray = np.array([[f, 0, 7, 2.0, 2.0, 2.0] for f in range(3)], float)
+    for tracks, false_positives in ((np.zeros((0, 6)), 0), (stray, 3)):
+        ev = evaluate(tracks, truth, views=views)
+        assert ev.truth_objects == 0 and ev.false_positives == false_positives
+        assert np.isnan(ev.mota) and np.isnan(ev.recall)
+        assert "MOTA: n/a (no ball seen by two cameras)" in ev.table()
+    assert evaluate(stray, truth).mota == pytest.approx(1 - (20 + 3) / 20)  # every ball required: a score as before

@@ -81,6 +81,7 @@ def run(args) -> int:
 
     from ..console import info
     from ..errors import StereotrackError
+    from ..evaluate import NO_BALL, figure
     from ..files import replace_section
     from ..simulation.stress import CATEGORIES, describe, seeds
 
@@ -118,7 +119,10 @@ def run(args) -> int:
     def report(r: dict) -> None:
         if args.quiet:
             return
-        parts = [f"{m} " + (f"failed ({v['error']})" if "error" in v else f"MOTA {v['mota']:.3f}") for m, v in r["methods"].items()]
+        parts = [
+            f"{m} " + (f"failed ({v['error']})" if "error" in v else f"MOTA {figure(v['mota'], '.3f', NO_BALL)}")
+            for m, v in r["methods"].items()
+        ]
         how = "rendered" if r["rendered"] else "cached scene"
         info(f"{r['category']} seed {r['seed']}: {', '.join(parts)} ({how}; {time.perf_counter() - start:.0f} s)")
 
@@ -518,8 +522,10 @@ def summarise(results: list[dict], methods: Iterable[str]) -> list[dict]:
             runs = [(r["seed"], r["methods"][method]) for r in results if r["category"] == cat and method in r["methods"]]
             if not runs:
                 continue
-            ok = [(s, m) for s, m in runs if "error" not in m]
-            row: dict[str, Any] = {"category": cat, "method": method, "seeds": len(runs), "failed": len(runs) - len(ok)}
+            done = [(s, m) for s, m in runs if "error" not in m]
+            ok = [(s, m) for s, m in done if m["mota"] == m["mota"]]  # NaN: no ball seen by two cameras, nothing to score
+            row: dict[str, Any] = {"category": cat, "method": method, "seeds": len(runs), "failed": len(runs) - len(done)}
+            row["no_ball"] = len(done) - len(ok)
             if ok:
                 worst_seed, worst = min(ok, key=lambda sm: sm[1]["mota"])
                 errors = [m["mean_error_mm"] for _, m in ok if m["mean_error_mm"] == m["mean_error_mm"]]  # NaN: nothing matched
@@ -558,6 +564,7 @@ def markdown_table(rows: list[dict]) -> str:
     ]
     for r in rows:
         failed = f" ({r['failed']} failed)" if r["failed"] else ""
+        failed += f" ({r['no_ball']} with no ball seen by two cameras, not scored)" if r.get("no_ball") else ""
         if "mota_median" not in r:
             lines.append(f"| {r['category']} | {r['method']} | {r['seeds']}{failed} | | | | | | | no |")
             continue

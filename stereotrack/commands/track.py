@@ -199,7 +199,7 @@ def _track(args, default_out: Path | None, stopper) -> int:
     )
     info(f"tracks written to {out}")
     if truth is not None and tracked:
-        from ..evaluate import evaluate
+        from ..evaluate import NO_BALL, evaluate, figure
 
         try:
             tracks = read_tracks(out)
@@ -207,8 +207,9 @@ def _track(args, default_out: Path | None, stopper) -> int:
             ev = evaluate(tracks, truth[scored], frames=tracked, views=None if views is None else views[scored])
             scope = f" (scored over the {len(tracked)} frames tracked)" if len(tracked) < stop - args.start else ""
             info(
-                f"against the recording's truth.csv{scope}: MOTA {ev.mota:.3f}, MOTP {ev.motp_mm:.1f} mm, id switches {ev.id_switches}, "
-                f"recall {ev.recall:.3f}, precision {ev.precision:.3f}, mean 3D error {ev.mean_error_mm:.1f} mm"
+                f"against the recording's truth.csv{scope}: MOTA {figure(ev.mota, '.3f', NO_BALL)}, MOTP {figure(ev.motp_mm, '.1f', unit=' mm')}, "
+                f"id switches {ev.id_switches}, recall {figure(ev.recall, '.3f')}, precision {figure(ev.precision, '.3f')}, "
+                f"mean 3D error {figure(ev.mean_error_mm, '.1f', unit=' mm')}"
             )
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it
             warn(f"could not score against truth.csv: {exc}")

@@ -28,6 +28,12 @@ def test_summary_takes_median_and_worst_and_marks_the_goal():
     table = markdown_table(rows)
     assert "| a | particles | 3 | 0.960 | 0.900 (2) |" in table and table.count("| yes |") == 1
 
+    # A scene where no ball is seen by two cameras (static_props tune seeds 441, 460: the props hide it) has no MOTA
+    # (evaluate: NaN), and was a worst seed of 0.000 whatever the tracker did: it is counted apart, not scored
+    rows = summarise([res("a", 0, 0.99), res("a", 1, float("nan")), res("a", 2, 0.96)], ["particles"])
+    assert rows[0]["mota_worst"] == 0.96 and rows[0]["mota_median"] == pytest.approx(0.975) and rows[0]["no_ball"] == 1
+    assert "| a | particles | 3 (1 with no ball seen by two cameras, not scored) | 0.975 | 0.960 (2) |" in markdown_table(rows)
+
 
 def test_replace_section_keeps_the_rest_of_the_file(tmp_path):
     doc = tmp_path / "evaluation.md"
