@@ -105,12 +105,12 @@ MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches a
 
 def _sample(image: np.ndarray, uv: np.ndarray, grey: bool = True) -> np.ndarray:
     """Grey values (float, the mean of the channels) of ``image`` at pixels ``uv`` (... x 2), bilinear; with ``grey``
-    False, every channel (... x C; a grey image's one channel counted three times, as a colour image's three)."""
+    False, every channel (... x C)."""
     shape = uv.shape[:-1]
     maps = uv.reshape(1, -1, 2).astype(np.float32)
     out = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float32)
     if not grey:
-        return out.reshape(shape + (-1,)) if out.ndim == 3 else 3.0 * out.reshape(shape + (1,))
+        return out.reshape(shape + (-1,))
     if out.ndim == 3:
         out = out.mean(axis=2)
     return out.reshape(shape)
