@@ -524,8 +524,13 @@ def summarise(results: list[dict], methods: Iterable[str]) -> list[dict]:
                 continue
             done = [(s, m) for s, m in runs if "error" not in m]
             ok = [(s, m) for s, m in done if m["mota"] == m["mota"]]  # NaN: no ball seen by two cameras, nothing to score
-            row: dict[str, Any] = {"category": cat, "method": method, "seeds": len(runs), "failed": len(runs) - len(done)}
-            row["no_ball"] = len(done) - len(ok)
+            row: dict[str, Any] = {
+                "category": cat,
+                "method": method,
+                "seeds": len(runs),
+                "failed": len(runs) - len(done),
+                "no_ball": len(done) - len(ok),
+            }
             if ok:
                 worst_seed, worst = min(ok, key=lambda sm: sm[1]["mota"])
                 errors = [m["mean_error_mm"] for _, m in ok if m["mean_error_mm"] == m["mean_error_mm"]]  # NaN: nothing matched

@@ -220,9 +220,9 @@ def rimmed(position: np.ndarray, radius: float, cameras: Sequence[Camera], image
     steps by RIM_STEP or more across a circle about its apparent size, RIM_SCALES, in RIM_SHARE of RIM_ANGLES directions
     from its centre), and stand before things of ``colour`` (the target's range) in one of them (RIM_RING of the ring
     round its disc)? Not when no view shows it so large."""
-    told = before = False
     angles = np.linspace(0.0, 2 * np.pi, RIM_ANGLES, endpoint=False)
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # A x 2
+    shown = []  # (image, centre, apparent radius) of each view that shows it large enough
     for cam, image in zip(cameras, images):
         uv, front, z = cam.view(np.asarray(position, float)[None])
         r = float(cam.apparent_radius(radius, z[0])) if front[0] else 0.0
@@ -235,16 +235,22 @@ def rimmed(position: np.ndarray, radius: float, cameras: Sequence[Camera], image
         step = np.abs(outside - inside).sum(axis=-1).max(axis=0)  # per direction, at the circle where it steps most
         if (step >= RIM_STEP).mean() < RIM_SHARE:
             return False
-        told = True
-        (u, v), h, w, grow = uv[0], image.shape[0], image.shape[1], int(np.ceil(RING_OF_COLOUR[1] * r))
-        x0, x1, y0, y1 = max(int(u) - grow, 0), min(int(u) + grow + 1, w), max(int(v) - grow, 0), min(int(v) + grow + 1, h)
-        ys, xs = np.mgrid[y0:y1, x0:x1]
-        gaps = np.hypot(xs - u, ys - v)
-        ring = (gaps >= RING_OF_COLOUR[0] * r) & (gaps <= RING_OF_COLOUR[1] * r)
-        if ring.any():
-            in_range = target_mask(to_hsv(np.ascontiguousarray(image[y0:y1, x0:x1])), colour)
-            before |= float(in_range[ring].mean()) >= RIM_RING
-    return told and before
+        shown.append((image, uv[0], r))
+    # The colour round it only once every view showed its outline (most things fail that, and it is the cheap part)
+    return any(_ring_in_range(image, centre, r, colour) >= RIM_RING for image, centre, r in shown)
+
+
+def _ring_in_range(image: np.ndarray, centre: np.ndarray, r: float, colour: Target) -> float:
+    """The share of the ring RING_OF_COLOUR (in apparent radii ``r``) round ``centre`` in ``colour``'s range (0: none of
+    it in the image)."""
+    (u, v), h, w, grow = centre, image.shape[0], image.shape[1], int(np.ceil(RING_OF_COLOUR[1] * r))
+    x0, x1, y0, y1 = max(int(u) - grow, 0), min(int(u) + grow + 1, w), max(int(v) - grow, 0), min(int(v) + grow + 1, h)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    gaps = np.hypot(xs - u, ys - v)
+    ring = (gaps >= RING_OF_COLOUR[0] * r) & (gaps <= RING_OF_COLOUR[1] * r)
+    if not ring.any():
+        return 0.0
+    return float(target_mask(to_hsv(np.ascontiguousarray(image[y0:y1, x0:x1])), colour)[ring].mean())
 
 
 def flat(
