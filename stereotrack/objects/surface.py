@@ -11,7 +11,8 @@ Before that, a still object of a coloured ball must show as a ball (``ball_shape
 of the size a ball has at the depth the views give it, or, where it merges with things of its colour behind it, its
 outline all round in the image (``rimmed``). A bottle, a flag or a sign of the ball's colour is not one. And
 it must be shaded (``flat``): a round sticker of the ball's colour on a plain wall, whose surround tells nothing, is one
-flat colour in every view.
+flat colour in every view. One that shows as a whole ball in every view, large enough for its shape to tell
+(``whole_ball``), is a ball even where its surround lies at its own depth: a ball at rest against a wall.
 """
 
 from __future__ import annotations
@@ -101,6 +102,18 @@ RIM_SHARE = 0.9
 RIM_MIN_PX = 3.0
 RING_OF_COLOUR = (1.3, 1.8)
 RIM_RING = 0.3
+_ANGLES = np.linspace(0.0, 2 * np.pi, RIM_ANGLES, endpoint=False)
+_DIRECTIONS = np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=-1)  # A x 2: the outline's directions from a centre
+# A ball at rest against a wall, or a hand's breadth before it, has the wall round it at its own depth to a pixel or two of
+# disparity, and by its surround alone it is a patch of the wall (static_props seed 469: a green ball at rest 1.9 m away
+# before a mauve wall, dropped for the whole scene). Its shape says otherwise where it is seen large enough: a disc of its
+# size (``ball_shaped``) with its outline all round (``_outlined``) in every view, WHOLE_MIN_PX or more in radius
+# (``whole_ball``), is a ball wherever it rests, and its surround is not asked. Smaller, a disc's few pixels fit a far
+# thing by chance, and the surround decides. Every still object that reached the surround test (shaped or outlined, not
+# flat; hue_wall tune seeds 0-199, static_props 0-159, 240-319, 400-559): balls it dropped, 82 object-frames in 8 seeds,
+# every one 9-13 pixels in radius in both views, a whole disc outlined all round in each; things it dropped, 125, every
+# one 4-5 pixels (a book's end on a shelf at 4 m, hue_wall seeds 68, 147), shaped and outlined too.
+WHOLE_MIN_PX = 6.0
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
 
@@ -220,24 +233,48 @@ def rimmed(position: np.ndarray, radius: float, cameras: Sequence[Camera], image
     steps by RIM_STEP or more across a circle about its apparent size, RIM_SCALES, in RIM_SHARE of RIM_ANGLES directions
     from its centre), and stand before things of ``colour`` (the target's range) in one of them (RIM_RING of the ring
     round its disc)? Not when no view shows it so large."""
-    angles = np.linspace(0.0, 2 * np.pi, RIM_ANGLES, endpoint=False)
-    directions = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # A x 2
     shown = []  # (image, centre, apparent radius) of each view that shows it large enough
     for cam, image in zip(cameras, images):
-        uv, front, z = cam.view(np.asarray(position, float)[None])
-        r = float(cam.apparent_radius(radius, z[0])) if front[0] else 0.0
-        if r < RIM_MIN_PX or not np.isfinite(uv).all() or image.ndim != 3:
+        uv, r = _seen(cam, position, radius)
+        if r < RIM_MIN_PX or image.ndim != 3:
             continue
-        gap = max(RIM_GAP * r, RIM_GAP_PX)  # each side of the outline: clear of its blur
-        circles = np.asarray(RIM_SCALES)[:, None, None] * r * directions  # S x A x 2, about the centre
-        inside = _sample(image, uv[0] + circles - gap * directions, grey=False)
-        outside = _sample(image, uv[0] + circles + gap * directions, grey=False)
-        step = np.abs(outside - inside).sum(axis=-1).max(axis=0)  # per direction, at the circle where it steps most
-        if (step >= RIM_STEP).mean() < RIM_SHARE:
+        if not _outlined(image, uv, r):
             return False
-        shown.append((image, uv[0], r))
+        shown.append((image, uv, r))
     # The colour round it only once every view showed its outline (most things fail that, and it is the cheap part)
     return any(_ring_in_range(image, centre, r, colour) >= RIM_RING for image, centre, r in shown)
+
+
+def whole_ball(
+    position: np.ndarray, radius: float, cameras: Sequence[Camera], views: Sequence[CameraEvidence], images: Sequence[np.ndarray]
+) -> bool:
+    """Does a ball at ``position`` show whole in every view, and large enough there for its shape to tell (WHOLE_MIN_PX
+    in radius): its blob a disc of its size (``ball_shaped``) and its outline all round in the image (as ``rimmed``
+    reads it)? Then it is a ball wherever it rests (WHOLE_MIN_PX)."""
+    for cam, view, image in zip(cameras, views, images):
+        uv, r = _seen(cam, position, radius)
+        if r < WHOLE_MIN_PX or image.ndim != 3 or not ball_shaped(position, radius, [view]) or not _outlined(image, uv, r):
+            return False
+    return bool(len(cameras))
+
+
+def _seen(cam: Camera, position: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
+    """Where a ball at ``position`` shows in ``cam`` and its apparent radius there (0 when out of view)."""
+    uv, front, z = cam.view(np.asarray(position, float)[None])
+    if not front[0] or not np.isfinite(uv).all():
+        return uv[0], 0.0
+    return uv[0], float(cam.apparent_radius(radius, z[0]))
+
+
+def _outlined(image: np.ndarray, centre: np.ndarray, r: float) -> bool:
+    """Does the colour step by RIM_STEP across a circle about ``r`` (RIM_SCALES) round ``centre`` in RIM_SHARE of
+    RIM_ANGLES directions (between points RIM_GAP of it, or RIM_GAP_PX, inside and outside)?"""
+    gap = max(RIM_GAP * r, RIM_GAP_PX)  # each side of the outline: clear of its blur
+    circles = np.asarray(RIM_SCALES)[:, None, None] * r * _DIRECTIONS  # S x A x 2, about the centre
+    inside = _sample(image, centre + circles - gap * _DIRECTIONS, grey=False)
+    outside = _sample(image, centre + circles + gap * _DIRECTIONS, grey=False)
+    step = np.abs(outside - inside).sum(axis=-1).max(axis=0)  # per direction, at the circle where it steps most
+    return bool((step >= RIM_STEP).mean() >= RIM_SHARE)
 
 
 def _ring_in_range(image: np.ndarray, centre: np.ndarray, r: float, colour: Target) -> float:
@@ -332,6 +369,8 @@ class SurfacePatches:
                 or flat(o.position, self.radius, self.cameras, images, self.colour)
             ):
                 out[k] = True
+                continue
+            if self.shapes and whole_ball(o.position, self.radius, self.cameras, views, images):
                 continue
             out[k] = self.on_surface(o.position, images, now)
         return out

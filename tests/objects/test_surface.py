@@ -17,6 +17,7 @@ from stereotrack.objects.surface import (
     on_surface,
     rimmed,
     surface_ratio,
+    whole_ball,
 )
 from stereotrack.results import Object3D
 
@@ -24,8 +25,8 @@ WALL_Y = 3.0  # metres ahead of the rig
 PINK = Target("pink", (158, 80, 80), (178, 255, 255), RADIUS)  # the range a user would type for _draw's pink
 
 
-def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS, wall=(128, 128, 128)):
-    """Each camera's image of a wall at WALL_Y (a random pattern of 3 cm squares, or flat, of colour ``wall``, BGR), with a
+def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS, wall=(128, 128, 128), wall_y=WALL_Y):
+    """Each camera's image of a wall at ``wall_y`` (a random pattern of 3 cm squares, or flat, of colour ``wall``, BGR), with a
     pink ball before it at ``ball`` (lit from above and in front: shaded) or a pink disc painted on it centred at
     ``painted`` (x, z, one flat colour), ray-traced pixel by pixel."""
     rng = np.random.default_rng(3)
@@ -35,7 +36,7 @@ def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS, wall=
     for cam in rig.cameras:
         v, u = np.mgrid[0 : cam.height, 0 : cam.width]
         o, d = cam.rays(np.column_stack([u.ravel() + 0.5, v.ravel() + 0.5]))
-        t = (WALL_Y - o[:, 1]) / d[:, 1]
+        t = (wall_y - o[:, 1]) / d[:, 1]
         hit = o + t[:, None] * d
         cells = np.clip(((hit[:, [0, 2]] + 3.0) / 0.03).astype(int), 0, 199)
         if wall_texture:
@@ -131,13 +132,13 @@ def test_a_surround_that_matches_at_the_objects_depth_both_ways_is_a_surface_at_
     assert surface.SURFACE_RATIO_BOTH < SURFACE_RATIO
 
 
-def _shapes_views(rig, at, shape: str, scale: float = 1.0, moving: bool = False):
+def _shapes_views(rig, at, shape: str, scale: float = 1.0, moving: bool = False, radius: float = RADIUS):
     """Each camera's evidence of one pink thing drawn at ``at``'s projection: a disc of ``scale`` times a ball's apparent
     radius there, or a square or a flat box as wide as that ball; still, or moving all over."""
     views = []
     for cam in rig.cameras:
         uv, _, z = cam.view(np.asarray(at, float)[None])
-        r = float(cam.apparent_radius(RADIUS, z[0]))
+        r = float(cam.apparent_radius(radius, z[0]))
         u, v = (int(round(c)) for c in uv[0])
         mask = np.zeros((cam.height, cam.width), np.uint8)
         if shape == "disc":
@@ -237,3 +238,31 @@ def test_a_ball_at_rest_before_a_wall_of_its_hue_is_told_by_its_outline_where_no
     grey_wall = _draw(rig, False, ball=at)
     assert not rimmed(at, RADIUS, rig.cameras, grey_wall, PINK)
     assert patches.drop(thing, _shapes_views(rig, at, "box"), grey_wall, nothing_travelled, 0.0).tolist() == [True]
+
+
+def test_a_whole_ball_at_rest_against_a_patterned_wall_is_a_ball_though_its_surround_is_at_its_depth(monkeypatch):
+    """A ball resting against a wall has the wall's pattern round it at its own depth, and by stereo alone it is a patch
+    of the wall (static_props seed 469: a ball at rest before a wall lost for the whole scene). Seen large enough for its
+    shape to tell, a disc of its size with its outline all round in every view (``whole_ball``), it is a ball wherever it
+    rests. Seen smaller, its surround still decides, as for a far thing whose few pixels a disc's shape fits by chance."""
+    import stereotrack.objects.surface as surface
+
+    rig = default_rig()
+    wall_y, nothing_travelled = 2.0, np.zeros((0, 3))
+    for radius, kept in [(RADIUS, True), (0.5 * RADIUS, False)]:
+        at = np.array([0.1, wall_y - radius, 0.05])  # touching the wall
+        images = _draw(rig, True, ball=at, radius=radius, wall_y=wall_y)
+        views = _shapes_views(rig, at, "disc", radius=radius)
+        assert on_surface(at, radius, rig.cameras, images)  # its surround: the wall, at its own depth
+        assert ball_shaped(at, radius, views) and not flat(at, radius, rig.cameras, images, PINK)
+        assert whole_ball(at, radius, rig.cameras, views, images) is kept, radius
+        patches = SurfacePatches(radius, rig.cameras, colour=PINK)
+        thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+        assert patches.drop(thing, views, images, nothing_travelled, 0.0).tolist() == [not kept], radius
+    # Without the whole-ball test, the surround drops the large one too
+    at = np.array([0.1, wall_y - RADIUS, 0.05])
+    images = _draw(rig, True, ball=at, wall_y=wall_y)
+    monkeypatch.setattr(surface, "WHOLE_MIN_PX", 1e9)
+    thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+    dropped = SurfacePatches(RADIUS, rig.cameras, colour=PINK).drop(thing, _shapes_views(rig, at, "disc"), images, nothing_travelled, 0.0)
+    assert dropped.tolist() == [True]
