@@ -141,6 +141,7 @@ def interrupted(exc: BaseException) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
+    from .capture.signals import interrupt_in
     from .errors import StereotrackError
 
     quiet_native_libraries()
@@ -161,6 +162,10 @@ def _main(argv: list[str] | None) -> int:
         exc.debug = debug
         raise
     except Exception as exc:  # a bug, not a user error: still one line unless --debug
+        stop = interrupt_in(exc)
+        if stop is not None:  # a stop signal a compiled library wrapped (capture/signals.py)
+            stop.debug = debug
+            raise stop from exc
         if debug:
             raise
         print(

@@ -136,6 +136,19 @@ def leave_to_parent() -> None:
     _State.installed = True  # install() (and so StopOnSignals) sees them handled and changes nothing
 
 
+def interrupt_in(exc: BaseException | None) -> KeyboardInterrupt | None:
+    """The stop (a KeyboardInterrupt) that ``exc`` is, or was raised from or while handling; None if it is none's.
+    A stop raised inside a compiled library's callback into Python (numba loading a kernel's constants, many times a
+    frame) comes out of the library as a SystemError caused by it: that is still the user's Ctrl-C, not a bug."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 def stop_requested() -> bool:
     """Whether a stop signal arrived inside any active StopOnSignals block (the run is ending on it)."""
     return any(scope.requested for scope in _State.scopes)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..capture.signals import interrupt_in
 from ..config import TrackSettings
 from ..files import AtomicOutput, read_columns
 from ..results import FrameResult, TrackEstimate
@@ -79,8 +80,8 @@ class TracksCsvSink:
     def close(self) -> None:
         if self._file.closed:
             return
-        failing = sys.exc_info()[0]
-        if failing is None or issubclass(failing, KeyboardInterrupt):  # Ctrl-C keeps what was tracked
+        failing = sys.exc_info()[1]
+        if failing is None or interrupt_in(failing) is not None:  # Ctrl-C keeps what was tracked
             while self._held:
                 self._flush_oldest()
             self._out.commit()

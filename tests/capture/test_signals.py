@@ -142,3 +142,45 @@ def test_closing_a_recorder_whose_disk_stopped_answering_takes_bounded_time_and_
     err = capsys.readouterr().err
     assert "the writer wrote nothing for 0.5 s" in err and "2 pairs unwritten" in err, err
     disk.set()
+
+
+def _stop_inside_a_kernel(stop: BaseException) -> None:
+    """Call a compiled kernel with ``stop`` raised where a signal lands inside one: in numba's call back into Python that
+    loads a kernel's constants (``_numba_unpickle``, thousands of times a second while tracking)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from scene_helpers import default_rig
+
+    camera, point = default_rig().cameras[0], np.array([[0.0, 1.5, 0.0]])
+    camera.view(point)  # compiled and loaded
+
+    def tracer(frame, event, arg):
+        if event == "call" and frame.f_code.co_name == "_numba_unpickle":
+            sys.settrace(None)
+            raise stop
+
+    sys.settrace(tracer)
+    try:
+        camera.view(point)
+    finally:
+        sys.settrace(None)
+
+
+def test_a_stop_inside_a_compiled_kernel_is_still_a_stop_not_an_internal_error(monkeypatch, capsys):
+    """numba hands a stop raised inside its call back on as a SystemError caused by it (test_viewer's Ctrl-C test saw
+    one). It is the user's stop all the same: ``interrupt_in`` finds it, and the command line says "interrupted" with
+    the signal's exit status, not "internal error" (exit 3)."""
+    from stereotrack import cli
+    from stereotrack.capture.signals import Interrupted, interrupt_in
+    from stereotrack.commands import bench
+
+    stop = Interrupted("SIGTERM")
+    try:
+        _stop_inside_a_kernel(stop)
+    except BaseException as exc:  # noqa: BLE001 (what numba makes of it is the point)
+        raised = exc
+    assert isinstance(raised, SystemError) and interrupt_in(raised) is stop
+    assert interrupt_in(SystemError("a bug")) is None and interrupt_in(None) is None
+    monkeypatch.setattr(bench, "run", lambda args: _stop_inside_a_kernel(Interrupted("SIGTERM")))
+    assert cli.main(["bench", "--quick"]) == 128 + 15
+    err = capsys.readouterr().err
+    assert err.strip() == "interrupted by SIGTERM", err

@@ -339,6 +339,7 @@ SCRIPT = textwrap.dedent(
     import numpy as np
     sys.path.insert(0, {tests!r})
     from test_viewer import make_rig, make_result, TARGETS
+    from stereotrack.capture.signals import interrupt_in
     from stereotrack.config import Config
     from stereotrack.sinks.viewer import RerunSink, VizOutputs
     rig, rng = make_rig(), np.random.default_rng(0)
@@ -349,7 +350,9 @@ SCRIPT = textwrap.dedent(
             sink.write(make_result(rig, frame, rng))
             print(frame, flush=True)
             frame += 1
-    except KeyboardInterrupt:
+    except BaseException as exc:  # Ctrl-C, or as a compiled kernel hands it on (capture/signals.interrupt_in)
+        if interrupt_in(exc) is None:
+            raise
         print("interrupted", flush=True)
     finally:
         sink.close()

@@ -28,6 +28,7 @@ from ...calibration.boards import Board
 from ...calibration.report import format_report
 from ...calibration.solve import Calibration
 from ...calibration.views import ViewSet
+from ...capture.signals import interrupt_in
 from .process import finish_outlets, flush_bounded, open_outlets
 from .sink import VizOutputs
 from .style import APPLICATION_ID, PALETTE
@@ -135,11 +136,11 @@ class CalibrationViewer:
         if self._closed:
             return
         self._closed = True
-        failing = sys.exc_info()[0]
+        failing = sys.exc_info()[1]
         try:
             flush_bounded(self.rec, self._outlets)
         finally:
-            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or issubclass(failing, KeyboardInterrupt))
+            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or interrupt_in(failing) is not None)
 
     @property
     def rrd_path(self) -> Path | None:

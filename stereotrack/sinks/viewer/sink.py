@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ...camera import Rig
-from ...capture.signals import StopOnSignals, stop_requested
+from ...capture.signals import StopOnSignals, interrupt_in, stop_requested
 from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
@@ -507,7 +507,7 @@ class RerunSink:
         if self._closed:
             return
         self._closed = True
-        failing = sys.exc_info()[0]
+        failing = sys.exc_info()[1]
         try:
             try:
                 self._queue.put(None, timeout=FLUSH_SECONDS)  # after the frames already queued: all of them reach the file
@@ -524,7 +524,7 @@ class RerunSink:
                 except KeyboardInterrupt:
                     pass
         finally:
-            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or issubclass(failing, KeyboardInterrupt))
+            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or interrupt_in(failing) is not None)
         if self._worker_error is not None:
             error = self._worker_error
             raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error
