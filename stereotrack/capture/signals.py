@@ -137,15 +137,14 @@ def leave_to_parent() -> None:
 
 
 def interrupt_in(exc: BaseException | None) -> KeyboardInterrupt | None:
-    """The stop (a KeyboardInterrupt) that ``exc`` is, or was raised from or while handling; None if it is none's.
-    A stop raised inside a compiled library's callback into Python (numba loading a kernel's constants, many times a
-    frame) comes out of the library as a SystemError caused by it: that is still the user's Ctrl-C, not a bug."""
-    seen: set[int] = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
+    """The stop (a KeyboardInterrupt) that ``exc`` is, or that caused it; None when no stop did. A stop raised inside a
+    compiled library's call back into Python (numba loading a kernel's constants, many times a frame) comes out of the
+    library as a SystemError caused by it: still the user's Ctrl-C, not a bug. An error merely raised while a stop was
+    handled (a disk that failed as a file was closed) is that error: only causes count, not contexts."""
+    for _ in range(100):  # (a chain of causes is short; none is followed for ever)
+        if exc is None or isinstance(exc, KeyboardInterrupt):
             return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
+        exc = exc.__cause__
     return None
 
 

@@ -180,6 +180,13 @@ def test_a_stop_inside_a_compiled_kernel_is_still_a_stop_not_an_internal_error(m
         raised = exc
     assert isinstance(raised, SystemError) and interrupt_in(raised) is stop
     assert interrupt_in(SystemError("a bug")) is None and interrupt_in(None) is None
+    try:  # an error raised while a stop was handled, not by it, is that error
+        try:
+            raise Interrupted("SIGINT")
+        except KeyboardInterrupt:
+            raise OSError("the disk failed as the file was closed")  # noqa: B904 (what is tested)
+    except OSError as exc:
+        assert interrupt_in(exc) is None
     monkeypatch.setattr(bench, "run", lambda args: _stop_inside_a_kernel(Interrupted("SIGTERM")))
     assert cli.main(["bench", "--quick"]) == 128 + 15
     err = capsys.readouterr().err
