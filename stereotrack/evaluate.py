@@ -119,18 +119,19 @@ def evaluate(
         v = float(s[k].iloc[0])
         return v if np.isfinite(v) else 0.0
 
-    truth_objects = int(val("num_objects"))
+    truth_objects, matches, false_positives = int(val("num_objects")), int(val("num_matches")), int(val("num_false_positives"))
     return Evaluation(
         frames=int(len(frames)),
         truth_objects=truth_objects,
-        matches=int(val("num_matches")),
+        matches=matches,
         misses=int(val("num_misses")),
-        false_positives=int(val("num_false_positives")),
+        false_positives=false_positives,
         id_switches=int(val("num_switches")),
         mota=val("mota") if truth_objects else float("nan"),  # 0 / 0: no ball two cameras see, no tracker's failure
-        motp_mm=1e3 * val("motp"),
+        # ... and no match, no MOTP (it read 0.0 mm: perfect); no track where one counts, no precision
+        motp_mm=1e3 * val("motp") if matches else float("nan"),
         recall=val("recall") if truth_objects else float("nan"),
-        precision=val("precision"),
+        precision=val("precision") if matches + false_positives else float("nan"),
         mean_error_mm=1e3 * float(err.mean()) if len(err) else float("nan"),
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),
         gate_m=gate,

@@ -69,3 +69,18 @@ def test_with_no_ball_two_cameras_see_mota_and_recall_are_undefined_not_zero():
         assert np.isnan(ev.mota) and np.isnan(ev.recall)
         assert "MOTA: n/a (no ball seen by two cameras)" in ev.table()
     assert evaluate(stray, truth).mota == pytest.approx(1 - (20 + 3) / 20)  # every ball required: a score as before
+
+
+def test_with_nothing_matched_motp_is_undefined_and_with_no_track_precision_too():
+    """A tracker that found no ball scored MOTP 0.0 mm, as a perfect one does, and precision 0.000 with no track to be
+    precise about. Both are 0 / 0: NaN, "n/a" in the table; recall and MOTA still charge every miss."""
+    truth = truth_rows(10)
+    far = np.array([[f, 0, 7, 2.0, 2.0, 2.0] for f in range(3)], float)  # tracks, none on a ball
+    for tracks, precision in ((np.zeros((0, 6)), None), (far, 0.0)):
+        ev = evaluate(tracks, truth)
+        assert ev.matches == 0 and np.isnan(ev.motp_mm) and "MOTP: n/a" in ev.table()
+        assert ev.recall == 0.0 and ev.mota == pytest.approx(1 - (20 + len(tracks)) / 20)
+        if precision is None:
+            assert np.isnan(ev.precision) and "precision: n/a" in ev.table()
+        else:
+            assert ev.precision == precision

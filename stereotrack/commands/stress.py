@@ -534,6 +534,7 @@ def summarise(results: list[dict], methods: Iterable[str]) -> list[dict]:
             if ok:
                 worst_seed, worst = min(ok, key=lambda sm: sm[1]["mota"])
                 errors = [m["mean_error_mm"] for _, m in ok if m["mean_error_mm"] == m["mean_error_mm"]]  # NaN: nothing matched
+                precisions = [m["precision"] for _, m in ok if m["precision"] == m["precision"]]  # NaN: no track at all
                 row.update(
                     mota_median=statistics.median(m["mota"] for _, m in ok),
                     mota_worst=worst["mota"],
@@ -542,7 +543,7 @@ def summarise(results: list[dict], methods: Iterable[str]) -> list[dict]:
                     id_switches_max=max(m["id_switches"] for _, m in ok),
                     error_mm_median=statistics.median(errors) if errors else float("nan"),
                     recall_median=statistics.median(m["recall"] for _, m in ok),
-                    precision_median=statistics.median(m["precision"] for _, m in ok),
+                    precision_median=statistics.median(precisions) if precisions else float("nan"),
                 )
             rows.append(row)
     return rows
@@ -562,6 +563,8 @@ def write_results_csv(results: list[dict], path: Path) -> Path:
 
 
 def markdown_table(rows: list[dict]) -> str:
+    from ..evaluate import figure
+
     lines = [
         "| category | method | seeds | MOTA median | MOTA worst (seed) | id switches median / max | 3D error median (mm) "
         "| recall median | precision median | goal met |",
@@ -574,10 +577,10 @@ def markdown_table(rows: list[dict]) -> str:
             lines.append(f"| {r['category']} | {r['method']} | {r['seeds']}{failed} | | | | | | | no |")
             continue
         met = r["mota_median"] >= TARGET_MEDIAN and r["mota_worst"] >= TARGET_WORST and not r["failed"]
-        error = "n/a" if r["error_mm_median"] != r["error_mm_median"] else f"{r['error_mm_median']:.1f}"
         lines.append(
             f"| {r['category']} | {r['method']} | {r['seeds']}{failed} | {r['mota_median']:.3f} | {r['mota_worst']:.3f} ({r['worst_seed']}) "
-            f"| {r['id_switches_median']:g} / {r['id_switches_max']} | {error} | {r['recall_median']:.3f} | {r['precision_median']:.3f} "
+            f"| {r['id_switches_median']:g} / {r['id_switches_max']} | {figure(r['error_mm_median'], '.1f')} | {r['recall_median']:.3f} "
+            f"| {figure(r['precision_median'], '.3f')} "
             f"| {'yes' if met else 'no'} |"
         )
     return "\n".join(lines)

@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stereotrack.cli import main as cli_main
@@ -33,6 +34,14 @@ def test_summary_takes_median_and_worst_and_marks_the_goal():
     rows = summarise([res("a", 0, 0.99), res("a", 1, float("nan")), res("a", 2, 0.96)], ["particles"])
     assert rows[0]["mota_worst"] == 0.96 and rows[0]["mota_median"] == pytest.approx(0.975) and rows[0]["no_ball"] == 1
     assert "| a | particles | 3 (1 with no ball seen by two cameras, not scored) | 0.975 | 0.960 (2) |" in markdown_table(rows)
+
+    # A scene with no track at all has no precision (NaN): left out of the precision median, not a 0 in it
+    empty = res("a", 3, 0.0)
+    empty["methods"]["particles"]["precision"] = float("nan")
+    rows = summarise([res("a", 0, 0.99), res("a", 2, 0.96), empty], ["particles"])
+    assert rows[0]["precision_median"] == 1.0
+    only = summarise([empty], ["particles"])
+    assert np.isnan(only[0]["precision_median"]) and markdown_table(only).endswith("| n/a | no |")
 
 
 def test_replace_section_keeps_the_rest_of_the_file(tmp_path):
