@@ -207,11 +207,10 @@ def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvide
             return True
         if not len(b.centres):
             continue
-        uv, front, z = v.camera.view(np.asarray(position, float)[None])
-        if not front[0] or not np.isfinite(uv).all():
+        uv, r = _seen(v.camera, position, radius)
+        if r <= 0:
             continue
-        r = float(v.camera.apparent_radius(radius, z[0]))
-        gaps = np.hypot(*(b.centres - uv[0]).T)
+        gaps = np.hypot(*(b.centres - uv).T)
         k = int(np.argmin(gaps))
         if gaps[k] > max(r, 2.0):
             continue
@@ -298,11 +297,11 @@ def flat(
     neighbours are too count; without, every pixel of the core."""
     told = False
     for cam, image in zip(cameras, images):
-        uv, front, z = cam.view(np.asarray(position, float)[None])
-        r = FLAT_CORE * float(cam.apparent_radius(radius, z[0])) if front[0] else 0.0
-        if r < FLAT_MIN_PX or not np.isfinite(uv).all():
+        uv, r = _seen(cam, position, radius)
+        r *= FLAT_CORE
+        if r < FLAT_MIN_PX:
             continue
-        (u, v), h, w = uv[0], image.shape[0], image.shape[1]
+        (u, v), h, w = uv, image.shape[0], image.shape[1]
         x0, x1, y0, y1 = max(int(u - r), 0), min(int(u + r) + 1, w), max(int(v - r), 0), min(int(v + r) + 1, h)
         if x1 - x0 < 2 or y1 - y0 < 2:
             continue
