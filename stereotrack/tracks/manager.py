@@ -39,7 +39,7 @@ from ..config import TrackSettings
 from ..results import Object3D, Parabola, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model
+from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model, moved_across_sight, robust_noise
 from .smoothing import FilterHistory, between_hits, hindsight_fills
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
@@ -242,13 +242,17 @@ class TrackManager:
             return tr.x.copy(), tr.P.copy(), np.eye(6)
         if tr.prediction is not None and tr.prediction[:3] == (time, tr.time, tr.in_flight):
             return tr.prediction[3].copy(), tr.prediction[4].copy(), tr.prediction[5]
-        if self.gravity is not None and tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT:  # thrown: motion.FAST_FLIGHT
+        if self._fast(tr):
             F, Q, b = fast_flight_model(dt, tr.x[3:], self.settings.fast_accel_noise, self.gravity, self.settings.drag)
         else:
             F, Q, b = self._motion_model(dt, tr.in_flight)
         x, P = kalman_predict(tr.x, tr.P, F, Q, b)
         tr.prediction = (time, tr.time, tr.in_flight, x, P, F)
         return x.copy(), P.copy(), F
+
+    def _fast(self, tr: _Track) -> bool:
+        """Thrown (motion.FAST_FLIGHT): it flies under gravity and drag, and its objects are weighed robustly."""
+        return self.gravity is not None and tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT
 
     def _motion_model(self, dt: float, in_flight: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``motion_model`` for this manager, remembered per (dt, in flight): every track of a frame shares dt."""
@@ -379,7 +383,8 @@ class TrackManager:
         tr.link = None
 
     def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
-        tr.x, tr.P = kalman_correct(tr.x, tr.P, np.ascontiguousarray(z, dtype=float), R)
+        z = np.ascontiguousarray(z, dtype=float)
+        tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
         self._hit(tr, z, R, obj, time)
 
     def _two_point(self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, time: float) -> None:
@@ -531,16 +536,8 @@ class TrackManager:
         vague along its rays and strays farther than that (hue_wall tune seed 18: a book's end 2.8 m off every ball).
         Never without the target's radius."""
         start = position if tr.first_shown is None else tr.first_shown
-        limit = TRAVEL * self.radius.get(tr.target, np.inf)
-        gone = position - start
-        if self.rig is None:
-            return bool(np.linalg.norm(gone) > limit)
-        for cam in self.rig.cameras:
-            ray = start - cam.centre
-            ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
-            if np.linalg.norm(gone - (gone @ ray) * ray) > limit:
-                return True
-        return False
+        centres = None if self.rig is None else [cam.centre for cam in self.rig.cameras]
+        return moved_across_sight(start, position, TRAVEL * self.radius.get(tr.target, np.inf), centres)
 
     def _smoothed(self, tr: _Track, time: float) -> tuple:
         """Keep this frame's state; give each frame smooth_time old by now smoothed with the later ones (FilterHistory.
