@@ -74,8 +74,8 @@ def entering(entry: tuple, x: np.ndarray, P: np.ndarray, fast: float, in_view) -
 # less the farther off it lies (a redescending weight, as robust M-estimators give). fast_ball MOTA summed against the
 # plain update: tune seeds 320-399 +0.61 (0.7 sigma +0.37, 1.4 sigmas +0.50, 2 sigmas +0.39, 3 none; a Student-t weight
 # with one degree of freedom +0.90 there but -0.41 on the seeds below); seeds 400-519, never looked at, +1.51, the mean
-# over three tracker seeds (each +0.98 to +2.06; the spread of the plain update's three: 1.1).  Scaled by the distance,
-# not its square: +1.23 over two.
+# over three tracker seeds (each +0.98 to +2.06; the plain update's three spread over 1.1). Scaled by the distance in
+# sigmas, not its square: +1.23 there (tracker seeds 0 and 1).
 ROBUST_SIGMAS = 1.0
 
 
