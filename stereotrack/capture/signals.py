@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import _thread
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -146,6 +147,13 @@ def interrupt_in(exc: BaseException | None) -> KeyboardInterrupt | None:
             return exc
         exc = exc.__cause__
     return None
+
+
+def output_kept() -> bool:
+    """Called while closing an output: keep what it wrote? Yes when no error is on its way out, or when the one that is
+    is a stop (``interrupt_in``): Ctrl-C keeps what was tracked or recorded, a failure leaves the previous output."""
+    failing = sys.exc_info()[1]
+    return failing is None or interrupt_in(failing) is not None
 
 
 def stop_requested() -> bool:

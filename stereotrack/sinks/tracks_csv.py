@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -10,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..capture.signals import interrupt_in
+from ..capture.signals import output_kept
 from ..config import TrackSettings
 from ..files import AtomicOutput, read_columns
 from ..results import FrameResult, TrackEstimate
@@ -80,8 +79,7 @@ class TracksCsvSink:
     def close(self) -> None:
         if self._file.closed:
             return
-        failing = sys.exc_info()[1]
-        if failing is None or interrupt_in(failing) is not None:  # Ctrl-C keeps what was tracked
+        if output_kept():  # Ctrl-C keeps what was tracked
             while self._held:
                 self._flush_oldest()
             self._out.commit()

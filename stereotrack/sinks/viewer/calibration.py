@@ -16,7 +16,6 @@ each view appears as it is taken; the fit follows when capture ends.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -28,7 +27,7 @@ from ...calibration.boards import Board
 from ...calibration.report import format_report
 from ...calibration.solve import Calibration
 from ...calibration.views import ViewSet
-from ...capture.signals import interrupt_in
+from ...capture.signals import output_kept
 from .process import finish_outlets, flush_bounded, open_outlets
 from .sink import VizOutputs
 from .style import APPLICATION_ID, PALETTE
@@ -136,11 +135,11 @@ class CalibrationViewer:
         if self._closed:
             return
         self._closed = True
-        failing = sys.exc_info()[1]
+        kept = output_kept()  # asked before flushing: an error the flush raises is not the run's
         try:
             flush_bounded(self.rec, self._outlets)
         finally:
-            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or interrupt_in(failing) is not None)
+            finish_outlets(self.rec, self._outlets, keep_rrd=kept)
 
     @property
     def rrd_path(self) -> Path | None:

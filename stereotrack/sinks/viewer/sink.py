@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ...camera import Rig
-from ...capture.signals import StopOnSignals, interrupt_in, stop_requested
+from ...capture.signals import StopOnSignals, output_kept, stop_requested
 from ...config import Config
 from ...console import info
 from ...errors import StereotrackError
@@ -507,7 +507,8 @@ class RerunSink:
         if self._closed:
             return
         self._closed = True
-        failing = sys.exc_info()[1]
+        ended_cleanly = sys.exc_info()[1] is None  # no error, no stop on its way out: a held viewer may keep serving
+        kept = output_kept()  # asked now: an error raised while closing is not the run's
         try:
             try:
                 self._queue.put(None, timeout=FLUSH_SECONDS)  # after the frames already queued: all of them reach the file
@@ -515,7 +516,7 @@ class RerunSink:
                 self._worker_error = self._worker_error or TimeoutError("the logging thread is stuck")
             self._worker.join(FLUSH_SECONDS)
             flush_bounded(self.rec, self._outlets)
-            if self.outputs.serve and self.outputs.hold and failing is None and self.web_url and not stop_requested():
+            if self.outputs.serve and self.outputs.hold and ended_cleanly and self.web_url and not stop_requested():
                 info(f"the web viewer keeps serving at {self.web_url} ; press Ctrl-C to stop")
                 try:
                     with StopOnSignals() as held:  # one Ctrl-C (or SIGTERM) ends the hold
@@ -524,7 +525,7 @@ class RerunSink:
                 except KeyboardInterrupt:
                     pass
         finally:
-            finish_outlets(self.rec, self._outlets, keep_rrd=failing is None or interrupt_in(failing) is not None)
+            finish_outlets(self.rec, self._outlets, keep_rrd=kept)
         if self._worker_error is not None:
             error = self._worker_error
             raise RuntimeError(f"rerun logging failed: {type(error).__name__}: {error}") from error
