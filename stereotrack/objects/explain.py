@@ -382,8 +382,10 @@ def _agree(
         # Farther apart only along the viewing ray, within what the triangulation and the particles claim, where the
         # particles claim no better than three radii there (a far ball's: 7 radii at 12 m, fast_ball tune seed 16; a near
         # ball's particles claiming 2 radii, 3.5 radii off, keep their word: lighting tune seed 6 0.967 -> 0.856 else).
-        # Not ``along_ray`` for a white or grey ball: its blobs are its lit crescents, their centroids off by as much
-        # (white_ball tune seeds 4, 16: 0.722, 0.278 -> 0.611, 0.252 with it).
+        # A white or grey ball's too, whose blob is its lit crescent in the mask with its shading's disc or its moving
+        # patch over it (motion.shading): refused it when its blob was the crescent alone (white_ball tune seeds 4, 16:
+        # 0.722, 0.278 -> 0.611, 0.252 then), a ball at rest kept its particles' depth, 0.12-0.17 m near and claiming
+        # 0.12 m, while its blobs triangulated to 2 cm (white_ball seed 222: 0.422 -> 1.000; seeds 0-279 +0.94).
         if not along_ray or ray @ spread @ ray <= (3.0 * radius) ** 2:
             return False
         sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))
@@ -431,7 +433,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
             # or in none): a disc merged with a pale moving patch beside it, its centroid off along the epipolar line
             # (lighting tune seed 61: a warm-up ghost in a streak's colour beside the ball, 9 pixels off, 0.29 m near; 0.939 -> 0.967).
             long = slack is None and any(_long(blobs[j], blob_ids[i, j]) for j in good)
-            if _agree(point, merged[i], cov, slack, settings.radius, origin, along_ray=settings.partial_views and not long):
+            if _agree(point, merged[i], cov, slack, settings.radius, origin, along_ray=not long):
                 out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:

@@ -193,9 +193,10 @@ def test_a_far_ball_takes_its_triangulated_centroids_where_its_particles_stray_a
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
     kept, _ = explain([obj(off, ray, 0.03)], evidence(rig, masks), ExplainSettings(radius=RADIUS))
     assert np.linalg.norm(kept[0].position - off) < 0.01
-    # A white or grey ball's blobs are its lit crescents (no partial views for it): its particles keep their word too.
+    # So does a white or grey ball's (no partial views for it) whose blobs are its whole discs: a ball at rest, its
+    # shading's disc (white_ball seed 222: its particles 0.12-0.17 m near, claiming 0.12 m).
     kept, _ = explain([obj(off, ray, 0.15)], evidence(rig, masks), ExplainSettings(radius=RADIUS, partial_views=False))
-    assert np.linalg.norm(kept[0].position - off) < 0.01, kept[0].position
+    assert np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
     # A near ball whose particles claim its depth to 2 radii, 3.5 radii off: they keep their word (the triangulation is
     # taken only where the particles claim no better than three radii; lighting tune seed 6 0.967 -> 0.856 else).
     near = np.array([0.1, 1.9, 0.0])
