@@ -382,10 +382,10 @@ def _agree(
         # Farther apart only along the viewing ray, within what the triangulation and the particles claim, where the
         # particles claim no better than three radii there (a far ball's: 7 radii at 12 m, fast_ball tune seed 16; a near
         # ball's particles claiming 2 radii, 3.5 radii off, keep their word: lighting tune seed 6 0.967 -> 0.856 else).
-        # A white or grey ball's too, whose blob is its lit crescent in the mask with its shading's disc or its moving
-        # patch over it (motion.shading): refused it when its blob was the crescent alone (white_ball tune seeds 4, 16:
-        # 0.722, 0.278 -> 0.611, 0.252 then), a ball at rest kept its particles' depth, 0.12-0.17 m near and claiming
-        # 0.12 m, while its blobs triangulated to 2 cm (white_ball seed 222: 0.422 -> 1.000; seeds 0-279 +0.94).
+        # A white or grey ball's too: its blob is its shading's disc or its moving patch, not only its lit crescent. A
+        # ball at rest kept its particles' depth, 0.12-0.17 m near and claiming 0.12 m, while its blobs triangulated to
+        # 2 cm (white_ball seed 222: 0.422 -> 1.000; seeds 0-279 +0.94). It was refused this when its blob was the
+        # crescent alone (white_ball tune seeds 4 and 16 fell then; they lose 0.02 each now).
         if not along_ray or ray @ spread @ ray <= (3.0 * radius) ** 2:
             return False
         sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))

@@ -193,8 +193,8 @@ def test_a_far_ball_takes_its_triangulated_centroids_where_its_particles_stray_a
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
     kept, _ = explain([obj(off, ray, 0.03)], evidence(rig, masks), ExplainSettings(radius=RADIUS))
     assert np.linalg.norm(kept[0].position - off) < 0.01
-    # So does a white or grey ball's (no partial views for it) whose blobs are its whole discs: a ball at rest, its
-    # shading's disc (white_ball seed 222: its particles 0.12-0.17 m near, claiming 0.12 m).
+    # A white or grey ball (no partial views for it) takes them too where its blobs are whole discs, as a ball at rest
+    # shows its shading's (white_ball seed 222: its particles 0.12-0.17 m near, claiming 0.12 m).
     kept, _ = explain([obj(off, ray, 0.15)], evidence(rig, masks), ExplainSettings(radius=RADIUS, partial_views=False))
     assert np.linalg.norm(kept[0].position - ball) < 0.05, kept[0].position
     # A near ball whose particles claim its depth to 2 radii, 3.5 radii off: they keep their word (the triangulation is
