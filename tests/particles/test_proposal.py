@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scene_helpers import RADIUS, default_rig, disc_masks, evidence
 
-from stereotrack.camera import Camera, intrinsics_from_fov, look_at
+from stereotrack.camera import Camera, Rig, intrinsics_from_fov, look_at
 from stereotrack.evidence.blobs import find_blobs
 from stereotrack.particles.proposal import depth_range_from_size, particles_on_rays, ray_crossings
 
@@ -197,3 +197,61 @@ def test_the_tracked_balls_are_projected_once_a_camera_for_the_seeds_and_the_cro
     monkeypatch.setattr(Camera, "project", lambda self, points: projected.append(self.name) or project(self, points))
     pts = proposal.RayProposal(TrackerSettings(), RADIUS)(views, 400, balls_at(balls[:1]), np.random.default_rng(0))
     assert len(pts) == 400 and sorted(projected) == sorted(cam.name for cam in rig.cameras)
+
+
+def sphere_masks(rig, path: np.ndarray, radius: float = RADIUS):
+    """Per camera: a 0/1 mask of a ball's true image as it moves along ``path`` during the exposure (the union of the
+    sphere's projected outlines at each point: off the camera's axis an ellipse stretched away from the centre)."""
+    on_sphere = np.random.default_rng(0).normal(size=(2000, 3))
+    on_sphere /= np.linalg.norm(on_sphere, axis=1, keepdims=True)
+    masks = []
+    for cam in rig.cameras:
+        m = np.zeros((cam.height, cam.width), np.uint8)
+        for centre in path:
+            uv, _ = cam.project(centre + radius * on_sphere)
+            cv2.fillConvexPoly(m, cv2.convexHull(np.round(uv * 16).astype(np.int32)), 1, shift=4)
+        masks.append(m)
+    return masks
+
+
+def test_a_moving_ball_near_the_edge_of_a_wide_view_keeps_its_crossing_and_its_particles(monkeypatch):
+    """Off the camera's axis a ball's image is stretched away from the centre (1 / cos of its ray's angle, 1.2-1.3 here
+    in a 90-degree view), and a short blur stretches it more; its blob's larger side is then 1.6-1.8 times a ball's
+    width there. Read as the ball's size, that put it too near: no crossing, and a depth range that ended before the
+    ball (fast_ball tune seed 407: 6 frames of a clearly seen ball with no particle on it). A moving blob is read off
+    the axis now; a still one (a patch of a wall of the ball's hue at the image's edge) as before."""
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles import proposal
+    from stereotrack.particles.proposal import RayProposal
+
+    K = intrinsics_from_fov(640, 480, 90.0)
+    cams = []
+    for i, x in enumerate((-0.15, 0.15)):
+        R, t = look_at((x, 0.0, 0.0), (0.0, 1.5, 0.0), up=(0.0, 0.0, 1.0))
+        cams.append(Camera(f"cam{i}", (640, 480), K, np.zeros(5), R, t))
+    rig = Rig(tuple(cams), world="custom")
+    ball = np.array([-1.5, 2.0, 0.3])
+    path = ball + np.linspace(-0.015, 0.015, 9)[:, None] * np.array([1.0, 0.0, 0.0])  # 3 cm of motion in the exposure
+    masks = sphere_masks(rig, path)
+    for cam, m in zip(rig.cameras, masks):
+        (_, _, w, h), ball_px = cv2.boundingRect(m), cam.focal_px * RADIUS / cam.depth(ball[None])[0]
+        assert max(w, h) / 2 > 1.6 * ball_px  # beyond the slack a ball's size has on the camera's axis
+    made = []
+
+    def spy(*args, **kwargs):
+        made.append(ray_crossings(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(proposal, "ray_crossings", spy)
+    found = {}
+    for moving in (True, False):
+        views = [CameraEvidence.from_mask(cam, m, foreground=m * moving) for cam, m in zip(rig.cameras, masks)]
+        assert all(len(v.blobs) == 1 for v in views)
+        pts = RayProposal(TrackerSettings(d_min=0.2, d_max=5.0), RADIUS)(views, 400, None, np.random.default_rng(0))
+        found[moving] = (made[-1], np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS)
+    crossings, near = found[True]
+    assert len(crossings) == 1 and np.linalg.norm(crossings[0] - ball) < 0.01
+    assert near.sum() > 50  # the crossing's share and its rays' particles
+    crossings, near = found[False]
+    assert len(crossings) == 0 and near.sum() == 0  # a still blob of that size is no ball there
