@@ -138,7 +138,7 @@ def _still(view: CameraEvidence) -> np.ndarray:
 # A moving blob's ray this far off the camera's axis or farther (cos 0.9: 26 degrees, a stretch of 11 %) has its size
 # read off the axis. Nearer, its stretch is within the size's slack, and the reading stays as it was: read at every
 # angle, the ranges of moving hands near the middle of the view moved by 1-5 %, and hands tune seeds 0-159 lost 3.7 of
-# summed MOTA (seed 12 0.78 -> -0.39, alike with three tracker seeds), white_ball 0-159 0.5.
+# summed MOTA (seed 12 0.78 -> -0.39, alike with three tracker seeds) and white_ball 0-159 lost 0.5.
 OFF_AXIS_COS = 0.9
 
 
@@ -228,10 +228,11 @@ class RayProposal:
                 # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
                 held = [_holders(p, v.blobs.centres, v.blobs.radii) > 0 for p, v in zip(projected, views)]
             if all(v.moving_integral is not None for v in views):
-                off_axis = [_off_axis(v.camera, v.rays[1]) for v in views]
-                still = [_still(v) for v in views] if self.moving_first or any((c < 1.0).any() for c in off_axis) else None
+                # per blob of the mask: its ray's cosine to its camera's axis (1 near the axis), and whether it is still
+                cosines = [_off_axis(v.camera, v.rays[1]) for v in views]
+                still = [_still(v) for v in views] if self.moving_first or any((c < 1.0).any() for c in cosines) else None
                 if still is not None:  # (most frames of a coloured ball: no blob far off the axis, nothing to ask)
-                    stretch = [np.where(m, 1.0, 1.0 / c) for m, c in zip(still, off_axis)]
+                    stretch = [np.where(m, 1.0, 1.0 / c) for m, c in zip(still, cosines)]
                 if self.moving_first:  # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                     held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch)
