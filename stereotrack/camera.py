@@ -149,6 +149,12 @@ class Camera:
         """Depth (z in the camera frame) of world points (N x 3)."""
         return self.to_camera(points)[:, 2]
 
+    def axis_cosines(self, directions: np.ndarray) -> np.ndarray:
+        """Per world unit direction (N x 3, as ``rays`` gives them): the cosine of its angle to this camera's optical
+        axis. A point at depth z lies z / cos along its ray, and a ball there looks stretched away from the image's
+        centre by 1 / cos."""
+        return np.asarray(directions, dtype=float).reshape(-1, 3) @ self.R[2]
+
 
 @dataclass(frozen=True, eq=False)
 class Rig:

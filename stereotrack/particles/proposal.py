@@ -151,7 +151,7 @@ def _off_axis(camera: Camera, directions: np.ndarray) -> np.ndarray:
     (6.3 m deep) 3.8 m away, beyond its depth range and its crossings' size test, and a clearly seen ball had no
     particle for 6 frames (fast_ball tune seed 407). A still blob keeps the reading on the axis: read off it too, a
     wall's patches of the ball's hue at the image's edges made ghosts (hue_wall tune seeds 0-199: -1.1 summed)."""
-    cos = directions @ camera.R[2]
+    cos = camera.axis_cosines(directions)
     return np.where(cos < OFF_AXIS_COS, np.maximum(cos, 0.1), 1.0)
 
 
