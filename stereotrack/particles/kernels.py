@@ -14,12 +14,13 @@ from ..kernels import _sqdist, kernel, project_points
 
 
 @kernel
-def crossing_points(o1, d1, r1, k1, use1, o2, d2, r2, k2, use2, R1, t1, f1, R2, t2, f2, radius, d_min, d_max, slack):
+def crossing_points(o1, d1, r1, k1, n1, use1, o2, d2, r2, k2, n2, use2, R1, t1, f1, R2, t2, f2, radius, d_min, d_max, slack):
     """Midpoints of the closest approach of every pair of rays, one from each of two cameras, that
     (nearly) meet: closer than ``radius``, between ``d_min`` and ``d_max`` along both rays, and with
     both blobs (radii ``r1``, ``r2`` in pixels) within ``slack`` times the size a ball of that radius
     has there (camera rotation R, translation t, focal length f), and larger still by up to ``k1``,
-    ``k2`` (per blob, the log of how much a ball's image may be stretched there: off the camera's axis).
+    ``k2`` (per blob, the log of how much a ball's image may be stretched there: off the camera's axis),
+    or smaller still by up to ``n1``, ``n2`` (per blob, the log of how much narrower than its ball it may read).
     Blobs not in ``use1``/``use2`` are skipped. Rays: origins and unit directions, A x 3 and B x 3.
     Returns K x 3."""
     out = np.empty((o1.shape[0] * o2.shape[0], 3))
@@ -53,7 +54,7 @@ def crossing_points(o1, d1, r1, k1, use1, o2, d2, r2, k2, use2, R1, t1, f1, R2, 
             z2 = R2[2, 0] * px + R2[2, 1] * py + R2[2, 2] * pz + t2[2]
             size1 = math.log(max(r1[a], 0.5) / (f1 * radius / max(z1, 1e-6)))
             size2 = math.log(max(r2[b], 0.5) / (f2 * radius / max(z2, 1e-6)))
-            if -log_slack < size1 < k1[a] + log_slack and -log_slack < size2 < k2[b] + log_slack:
+            if -log_slack - n1[a] < size1 < k1[a] + log_slack and -log_slack - n2[b] < size2 < k2[b] + log_slack:
                 out[n, 0], out[n, 1], out[n, 2] = px, py, pz
                 n += 1
     return out[:n].copy()

@@ -74,7 +74,7 @@ def particles_on_rays(
 
 
 def ray_crossings(
-    views: Sequence[CameraEvidence], radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6, stretch=None
+    views: Sequence[CameraEvidence], radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6, stretch=None, narrowed=None
 ) -> np.ndarray:
     """Where blob rays of two cameras (nearly) meet: K x 3 midpoints of their closest approach.
 
@@ -87,21 +87,26 @@ def ray_crossings(
     are blobs marked in ``skip`` (per camera, a bool per blob). ``stretch``
     (per camera, a factor per blob, at least 1): how much larger than a
     ball's width a blob's larger side may be besides (None: 1, a ball on the
-    camera's axis and still).
+    camera's axis and still); ``narrowed`` (likewise, at least 1): how much
+    narrower than a ball a blob's width may read besides (None: 1; a fast
+    ball's streak loses its faded sides from its mask).
     """
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
     if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
         raise ValueError("ray_crossings: skip needs one flag per blob of each view")
     ks = [np.zeros(len(v.blobs)) if stretch is None else np.log(np.asarray(stretch[j], float)) for j, v in enumerate(views)]
+    ns = [np.zeros(len(v.blobs)) if narrowed is None else np.log(np.asarray(narrowed[j], float)) for j, v in enumerate(views)]
     out = [
         crossing_points(
             *a.rays,
             a.blobs.ball_radii(),
             ks[j],
+            ns[j],
             use[j],
             *b.rays,
             b.blobs.ball_radii(),
             ks[k],
+            ns[k],
             use[k],
             a.camera.R,
             a.camera.t,
@@ -206,6 +211,10 @@ class RayProposal:
                 size = b.radii if b.widths is None else np.where(holders[j] > 1, b.radii, b.widths) if holders is not None else b.widths
                 off_axis = 1.0 if b.moved is None else np.where(b.moved, _off_axis(v.camera, b.directions), 1.0)
                 lo, hi = depth_range_from_size(v.camera, size, self.radius, s.d_min, s.d_max, off_axis=off_axis)
+                # a moving streak narrower than its ball has lost its blur's faded sides: its ball may be as near
+                # as the streak's length says
+                if b.moved is not None and (streak := b.moved & (size < b.radii)).any():
+                    lo = np.where(streak, depth_range_from_size(v.camera, b.radii, self.radius, s.d_min, s.d_max, off_axis=off_axis)[0], lo)
                 if self.moving_first and b.moved is not None and b.moved.any():  # a moving blob's size says less: see MOVING_SLACK
                     wide = depth_range_from_size(v.camera, size, self.radius, s.d_min, s.d_max, MOVING_SLACK, off_axis)
                     lo, hi = np.where(b.moved, wide[0], lo), np.where(b.moved, wide[1], hi)
@@ -223,19 +232,27 @@ class RayProposal:
             # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
             # into are left out (their ball has its particles; a partly hidden one's shifted centroid
             # would cross at the wrong depth).
-            held = stretch = None
+            held = stretch = narrowed = None
             if projected is not None:
                 # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
                 held = [_holders(p, v.blobs.centres, v.blobs.radii) > 0 for p, v in zip(projected, views)]
             if all(v.moving_integral is not None for v in views):
                 # per blob of the mask: its ray's cosine to its camera's axis (1 near the axis), and whether it is still
                 cosines = [_off_axis(v.camera, v.rays[1]) for v in views]
-                still = [_still(v) for v in views] if self.moving_first or any((c < 1.0).any() for c in cosines) else None
-                if still is not None:  # (most frames of a coloured ball: no blob far off the axis, nothing to ask)
+                # and whether it is a streak: a coloured ball's moving streak can read narrower than its ball, as the
+                # blur's faded sides fall out of its mask (not a white ball's: its colour's thin specks are the room's)
+                streaks = [(v.blobs.ball_radii() < v.blobs.radii) & (not self.moving_first) for v in views]
+                if self.moving_first or any((c < 1.0).any() or w.any() for c, w in zip(cosines, streaks)):
+                    # (most frames of a coloured ball: no blob far off the axis nor a streak, nothing to ask)
+                    still = [_still(v) for v in views]
                     stretch = [np.where(m, 1.0, 1.0 / c) for m, c in zip(still, cosines)]
+                    narrowed = [
+                        np.where(m | ~w, 1.0, v.blobs.radii / np.maximum(v.blobs.ball_radii(), 0.5))
+                        for m, w, v in zip(still, streaks, views)
+                    ]
                 if self.moving_first:  # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                     held = still if held is None else [h | m for h, m in zip(held, still)]
-            crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch)
+            crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed)
         n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
         pts = self._on_rays(
             np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng

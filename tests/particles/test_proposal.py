@@ -255,3 +255,44 @@ def test_a_moving_ball_near_the_edge_of_a_wide_view_keeps_its_crossing_and_its_p
     assert near.sum() > 50  # the crossing's share and its rays' particles
     crossings, near = found[False]
     assert len(crossings) == 0 and near.sum() == 0  # a still blob of that size is no ball there
+
+
+def test_a_fast_ball_whose_streak_reads_narrower_than_the_ball_keeps_its_crossing_and_its_particles(monkeypatch):
+    """A fast ball's blur fades at the streak's sides, and the faded edges fall out of its mask: the streak's width
+    reads narrower than the ball (fast_ball tune seed 422: 1.9 px against a ball of 4). Read as the ball's size, that
+    put it too far: the crossing test refused the pair, and the depth range along its ray began beyond the ball. A
+    moving streak's length says the ball is there now; a still blob that thin is no ball there, as before."""
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles import proposal
+    from stereotrack.particles.proposal import RayProposal
+
+    rig = default_rig()
+    ball = np.array([0.1, 2.0, 0.1])
+    path = ball + np.linspace(-0.1, 0.1, 21)[:, None] * np.array([1.0, 0.0, 0.3])  # 20 cm of flight in the exposure
+    masks = sphere_masks(rig, path, 0.35 * RADIUS)  # the streak's bright core only
+    made = []
+
+    def spy(*args, **kwargs):
+        made.append(ray_crossings(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(proposal, "ray_crossings", spy)
+    found = {}
+    for moving in (True, False):
+        views = [CameraEvidence.from_mask(cam, m, foreground=m * moving) for cam, m in zip(rig.cameras, masks)]
+        assert all(len(v.blobs) == 1 for v in views)
+        for cam, v in zip(rig.cameras, views):  # narrower than the ball beyond the slack its size has
+            assert v.blobs.ball_radii()[0] < cam.apparent_radius(RADIUS, cam.depth(ball[None])[0]) / 1.6
+        pts = RayProposal(TrackerSettings(d_min=0.2, d_max=5.0), RADIUS)(views, 400, None, np.random.default_rng(0))
+        found[moving] = (made[-1], np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS)
+    crossings, near = found[True]
+    assert len(crossings) == 1 and np.linalg.norm(crossings[0] - ball) < 0.02
+    assert near.sum() > 50  # the crossing's share and its rays' particles
+    crossings, near = found[False]
+    assert len(crossings) == 0
+    # without the crossing's share, the streak's rays alone still reach the ball (their depth range began beyond it)
+    views = [CameraEvidence.from_mask(cam, m, foreground=m) for cam, m in zip(rig.cameras, masks)]
+    settings = TrackerSettings(d_min=0.2, d_max=5.0, crossing_share=0.0)
+    pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
+    assert (np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS).sum() >= 5
