@@ -104,6 +104,15 @@ class Placer:
             ok &= front & (uv[:, 0] >= r) & (uv[:, 1] >= r) & (uv[:, 0] <= cam.width - 1 - r) & (uv[:, 1] <= cam.height - 1 - r)
         return ok
 
+    def depths_seen(self, pts: np.ndarray) -> np.ndarray:
+        """The depths of the points each camera sees (centre inside its image), all cameras' together."""
+        out = []
+        for cam in self.cams:
+            uv, front = cam.project(pts)
+            inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
+            out.append(cam.depth(pts[inside]))
+        return np.concatenate(out)
+
     def clear(self, pts: np.ndarray, radius: float) -> bool:
         for other, r in zip(self.paths, self.radii):
             d = np.linalg.norm(pts - other, axis=1)

@@ -357,6 +357,11 @@ def fast_ball(seed: int, rng) -> SceneSpec:
             if seen.sum() < 3 or not sc.clear(pts, radius):
                 continue
             last = sc.times[np.flatnonzero(seen)[-1]]
+            # 5-15 m away wherever a camera sees it: slanted across the view, a flight reached 20 m and more at one side
+            # (a ball a pixel or two across) and came nearer than 5 m at the other
+            depths = sc.depths_seen(pts[(sc.times >= t0) & (sc.times <= last + 0.25)])
+            if not depths.size or depths.min() < 5.0 or depths.max() > 15.0:
+                continue
             # A ball that reaches the floor while it is still present would fly on under it, unseen but in the truth.
             if np.any((sc.times >= t0) & (sc.times <= last + 0.25) & (pts[:, 2] < sc.floor_z + radius)):
                 continue
