@@ -214,29 +214,14 @@ def sphere_masks(rig, path: np.ndarray, radius: float = RADIUS):
     return masks
 
 
-def test_a_moving_ball_near_the_edge_of_a_wide_view_keeps_its_crossing_and_its_particles(monkeypatch):
-    """Off the camera's axis a ball's image is stretched away from the centre (1 / cos of its ray's angle, 1.2-1.3 here
-    in a 90-degree view), and a short blur stretches it more; its blob's larger side is then 1.6-1.8 times a ball's
-    width there. Read as the ball's size, that put it too near: no crossing, and a depth range that ended before the
-    ball (fast_ball tune seed 407: 6 frames of a clearly seen ball with no particle on it). A moving blob is read off
-    the axis now; a still one (a patch of a wall of the ball's hue at the image's edge) as before."""
+def proposed_moving_and_still(monkeypatch, rig, masks, ball):
+    """Per camera's ``masks`` seen moving (True) and still (False): the proposal's crossings, and which of its 400
+    particles lie within two radii of ``ball``."""
     from stereotrack.config import TrackerSettings
     from stereotrack.evidence.gather import CameraEvidence
     from stereotrack.particles import proposal
     from stereotrack.particles.proposal import RayProposal
 
-    K = intrinsics_from_fov(640, 480, 90.0)
-    cams = []
-    for i, x in enumerate((-0.15, 0.15)):
-        R, t = look_at((x, 0.0, 0.0), (0.0, 1.5, 0.0), up=(0.0, 0.0, 1.0))
-        cams.append(Camera(f"cam{i}", (640, 480), K, np.zeros(5), R, t))
-    rig = Rig(tuple(cams), world="custom")
-    ball = np.array([-1.5, 2.0, 0.3])
-    path = ball + np.linspace(-0.015, 0.015, 9)[:, None] * np.array([1.0, 0.0, 0.0])  # 3 cm of motion in the exposure
-    masks = sphere_masks(rig, path)
-    for cam, m in zip(rig.cameras, masks):
-        (_, _, w, h), ball_px = cv2.boundingRect(m), cam.focal_px * RADIUS / cam.depth(ball[None])[0]
-        assert max(w, h) / 2 > 1.6 * ball_px  # beyond the slack a ball's size has on the camera's axis
     made = []
 
     def spy(*args, **kwargs):
@@ -250,6 +235,29 @@ def test_a_moving_ball_near_the_edge_of_a_wide_view_keeps_its_crossing_and_its_p
         assert all(len(v.blobs) == 1 for v in views)
         pts = RayProposal(TrackerSettings(d_min=0.2, d_max=5.0), RADIUS)(views, 400, None, np.random.default_rng(0))
         found[moving] = (made[-1], np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS)
+    return found
+
+
+def test_a_moving_ball_near_the_edge_of_a_wide_view_keeps_its_crossing_and_its_particles(monkeypatch):
+    """Off the camera's axis a ball's image is stretched away from the centre (1 / cos of its ray's angle, 1.2-1.3 here
+    in a 90-degree view), and a short blur stretches it more; its blob's larger side is then 1.6-1.8 times a ball's
+    width there. Read as the ball's size, that put it too near: no crossing, and a depth range that ended before the
+    ball (fast_ball tune seed 407: 6 frames of a clearly seen ball with no particle on it). A moving blob is read off
+    the axis now; a still one (a patch of a wall of the ball's hue at the image's edge) as before."""
+
+    K = intrinsics_from_fov(640, 480, 90.0)
+    cams = []
+    for i, x in enumerate((-0.15, 0.15)):
+        R, t = look_at((x, 0.0, 0.0), (0.0, 1.5, 0.0), up=(0.0, 0.0, 1.0))
+        cams.append(Camera(f"cam{i}", (640, 480), K, np.zeros(5), R, t))
+    rig = Rig(tuple(cams), world="custom")
+    ball = np.array([-1.5, 2.0, 0.3])
+    path = ball + np.linspace(-0.015, 0.015, 9)[:, None] * np.array([1.0, 0.0, 0.0])  # 3 cm of motion in the exposure
+    masks = sphere_masks(rig, path)
+    for cam, m in zip(rig.cameras, masks):
+        (_, _, w, h), ball_px = cv2.boundingRect(m), cam.focal_px * RADIUS / cam.depth(ball[None])[0]
+        assert max(w, h) / 2 > 1.6 * ball_px  # beyond the slack a ball's size has on the camera's axis
+    found = proposed_moving_and_still(monkeypatch, rig, masks, ball)
     crossings, near = found[True]
     assert len(crossings) == 1 and np.linalg.norm(crossings[0] - ball) < 0.01
     assert near.sum() > 50  # the crossing's share and its rays' particles
@@ -264,35 +272,22 @@ def test_a_fast_ball_whose_streak_reads_narrower_than_the_ball_keeps_its_crossin
     moving streak's length says the ball is there now; a still blob that thin is no ball there, as before."""
     from stereotrack.config import TrackerSettings
     from stereotrack.evidence.gather import CameraEvidence
-    from stereotrack.particles import proposal
     from stereotrack.particles.proposal import RayProposal
 
     rig = default_rig()
     ball = np.array([0.1, 2.0, 0.1])
     path = ball + np.linspace(-0.1, 0.1, 21)[:, None] * np.array([1.0, 0.0, 0.3])  # 20 cm of flight in the exposure
     masks = sphere_masks(rig, path, 0.35 * RADIUS)  # the streak's bright core only
-    made = []
-
-    def spy(*args, **kwargs):
-        made.append(ray_crossings(*args, **kwargs))
-        return made[-1]
-
-    monkeypatch.setattr(proposal, "ray_crossings", spy)
-    found = {}
-    for moving in (True, False):
-        views = [CameraEvidence.from_mask(cam, m, foreground=m * moving) for cam, m in zip(rig.cameras, masks)]
-        assert all(len(v.blobs) == 1 for v in views)
-        for cam, v in zip(rig.cameras, views):  # narrower than the ball beyond the slack its size has
-            assert v.blobs.ball_radii()[0] < cam.apparent_radius(RADIUS, cam.depth(ball[None])[0]) / 1.6
-        pts = RayProposal(TrackerSettings(d_min=0.2, d_max=5.0), RADIUS)(views, 400, None, np.random.default_rng(0))
-        found[moving] = (made[-1], np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS)
+    views = [CameraEvidence.from_mask(cam, m, foreground=m) for cam, m in zip(rig.cameras, masks)]
+    for cam, v in zip(rig.cameras, views):  # narrower than the ball beyond the slack its size has
+        assert len(v.blobs) == 1 and v.blobs.ball_radii()[0] < cam.apparent_radius(RADIUS, cam.depth(ball[None])[0]) / 1.6
+    found = proposed_moving_and_still(monkeypatch, rig, masks, ball)
     crossings, near = found[True]
     assert len(crossings) == 1 and np.linalg.norm(crossings[0] - ball) < 0.02
     assert near.sum() > 50  # the crossing's share and its rays' particles
     crossings, near = found[False]
     assert len(crossings) == 0
     # without the crossing's share, the streak's rays alone still reach the ball (their depth range began beyond it)
-    views = [CameraEvidence.from_mask(cam, m, foreground=m) for cam, m in zip(rig.cameras, masks)]
     settings = TrackerSettings(d_min=0.2, d_max=5.0, crossing_share=0.0)
     pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
     assert (np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS).sum() >= 5
