@@ -232,7 +232,7 @@ class RayProposal:
             # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
             # into are left out (their ball has its particles; a partly hidden one's shifted centroid
             # would cross at the wrong depth).
-            held = stretch = narrowed = None
+            held = stretch = narrowed = still = None
             if projected is not None:
                 # per blob of the mask, as ray_crossings reads them (the seeds may be fewer or more blobs)
                 held = [_holders(p, v.blobs.centres, v.blobs.radii) > 0 for p, v in zip(projected, views)]

@@ -109,8 +109,7 @@ class Placer:
         out = []
         for cam in self.cams:
             uv, front = cam.project(pts)
-            inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
-            out.append(cam.depth(pts[inside]))
+            out.append(cam.depth(pts[front & cam.in_image(uv)]))
         return np.concatenate(out)
 
     def clear(self, pts: np.ndarray, radius: float) -> bool:

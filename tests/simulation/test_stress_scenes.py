@@ -179,7 +179,7 @@ def test_a_fast_ball_is_5_to_15_m_away_wherever_a_camera_sees_it():
             pts = r.ball_positions(frame / spec.fps)
             for cam in r.rig.cameras:
                 uv, front = cam.project(np.nan_to_num(pts))
-                seen = np.isfinite(pts[:, 0]) & front & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+                seen = np.isfinite(pts[:, 0]) & front & cam.in_image(uv)
                 depth = cam.depth(np.nan_to_num(pts))[seen]
                 assert np.all((depth >= 5.0) & (depth <= 15.0)), (seed, frame, depth)
                 seen_rows += len(depth)
