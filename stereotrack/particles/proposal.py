@@ -94,8 +94,11 @@ def ray_crossings(
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
     if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
         raise ValueError("ray_crossings: skip needs one flag per blob of each view")
-    ks = [np.zeros(len(v.blobs)) if stretch is None else np.log(np.asarray(stretch[j], float)) for j, v in enumerate(views)]
-    ns = [np.zeros(len(v.blobs)) if narrowed is None else np.log(np.asarray(narrowed[j], float)) for j, v in enumerate(views)]
+
+    def logs(factors):  # per camera, per blob: the log of a factor (None: 1), as the kernel reads it
+        return [np.zeros(len(v.blobs)) if factors is None else np.log(np.asarray(factors[j], float)) for j, v in enumerate(views)]
+
+    ks, ns = logs(stretch), logs(narrowed)
     out = [
         crossing_points(
             *a.rays,

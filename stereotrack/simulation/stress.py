@@ -359,11 +359,12 @@ def fast_ball(seed: int, rng) -> SceneSpec:
             last = sc.times[np.flatnonzero(seen)[-1]]
             # 5-15 m away wherever a camera sees it: slanted across the view, a flight reached 20 m and more at one side
             # (a ball a pixel or two across) and came nearer than 5 m at the other
-            depths = sc.depths_seen(pts[(sc.times >= t0) & (sc.times <= last + 0.25)])
+            present = (sc.times >= t0) & (sc.times <= last + 0.25)
+            depths = sc.depths_seen(pts[present])
             if not depths.size or depths.min() < 5.0 or depths.max() > 15.0:
                 continue
             # A ball that reaches the floor while it is still present would fly on under it, unseen but in the truth.
-            if np.any((sc.times >= t0) & (sc.times <= last + 0.25) & (pts[:, 2] < sc.floor_z + radius)):
+            if np.any(present & (pts[:, 2] < sc.floor_z + radius)):
                 continue
             balls.append(
                 BallSpec(traj, colour=tuple(int(round(c)) for c in colour), radius=radius, appear=t0, disappear=float(last + 0.25))
