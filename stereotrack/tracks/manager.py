@@ -15,6 +15,10 @@ The frame a track is confirmed, its estimate carries its hits while tentative
 Once a frame is ``smooth_time`` old, each track gives its state there smoothed
 with the frames since (``TrackEstimate.smoothed``, a Rauch-Tung-Striebel
 smoother): tracks.csv writes that in place of the filter's.
+With a rig, two places metres apart along a ray that are one ball in every
+camera's image count as one ball (``_on_balls``): a track seen only off and
+on that coasts where a hit track holds that ball is not reported, and an
+object on a steadily seen track's ball starts no track of its own.
 Objects of different targets never match each other; ids are positive
 integers unique across targets within a run.
 
@@ -63,6 +67,19 @@ LAUNCH_MARGIN = 1.5
 # away (motion_blur tune seed 19); lost longer, its reach holds other balls (fast_ball tune seed 6: one lost 0.6 s took
 # a new ball 7 m off).
 LAUNCH_TIME = 0.1
+# One ball in every view (``_on_balls``): within this many ball radii of a track's ball, or of the streak it drew since
+# the last frame, in every camera's image. Along a ray two places metres apart can be that: a 3D distance cannot tell.
+SHADOW_RADII = 2.0
+# A track seen fewer frames in a row than this before it was missed, coasting where a hit track's ball is in every view,
+# is not reported: it was that ball's ghost along the rays (fast_ball tune seed 414: confirmed 1.4 m off along a streak's
+# ray, it coasted beside the true track and was written for 9 frames). One seen steadily is a ball hidden behind
+# another (hue_wall tune seed 135: two balls 0.2 m apart in depth).
+SHADOW_RUN = FAST_CONFIRM_HITS
+# A track seen this many frames in a row and missed this frame owns its ball's image: an unmatched object there in every
+# view is that ball placed badly along the ray, and starts no track (fast_ball tune seed 456: a track seen once 11 frames
+# before took such an object 0.45 m behind a sharp track, and then its ball; with 3, one confirmed on a wrong velocity
+# held back its ball's new track for 5 frames, tune seed 419).
+OWNER_RUN = 5
 SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
@@ -80,10 +97,12 @@ class _Track:
     born: float  # time of the first hit
     last_hit: float  # time of the latest hit
     streak: int = 1  # hits in a row, this one included
+    run: int = 1  # hits in a row up to its latest hit (``streak`` is 0 once a frame was missed)
     hits: int = 1  # hits since it was born
     confirmed: bool = False
     hit: bool = True  # matched in the latest update
     contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
+    shadowed: bool = False  # unmatched, and where a hit track's ball is in every camera's image (``_shadowed``)
     n_particles: int = 0
     history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
     in_flight: bool = False  # gravity applies to its prediction
@@ -156,7 +175,7 @@ class TrackManager:
             tr.time = time
             tr.streak = tr.streak if tr.hit else 0  # a frame missed ends the run of hits
             tr.hit = False
-            tr.contested = False
+            tr.contested = tr.shadowed = False
             if tr.confirmed:  # the frames it was past tentative, counted as ``predicted`` showed them
                 tr.settled = self._settled(tr, tr.x[:3])
                 tr.first_shown = tr.x[:3].copy() if tr.first_shown is None else tr.first_shown
@@ -185,26 +204,38 @@ class TrackManager:
                         self._catch(tracks[ti], time)
                     self._correct(tracks[ti], z[j], R[j], objs[j], time)
                     free[j] = False
+            # An unmatched object on the ball of a steady track missed this frame (OWNER_RUN) gives no young track its
+            # second point and starts none: it is that ball, placed badly along the ray. A slow track may still be
+            # restarted there (``_lost_ball``: it stopped or set off; motion_blur tune seed 7), a fast one not (fast_ball
+            # tune seed 456: restarted 0.5 m off along the ray at 26 m/s, as if setting off from a noisy 51 m/s).
+            owners = [t for t in self._tracks if t.target == target and t.confirmed and not t.hit and t.run >= OWNER_RUN]
+            owned = np.zeros(len(objs), bool)
+            owned[free] = self._on_balls(target, z[free], owners, time).any(axis=1)
             if s.max_speed > 0:
-                self._two_point(target, z, R, objs, free, time)
+                unowned = free & ~owned
+                self._two_point(target, z, R, objs, unowned, time)
+                free &= unowned | owned
             # A missed track with an unmatched object of its colour nearby was lost by its motion model
             # (an abrupt catch): its prediction is not worth reporting.
             spare = z[free]
             for t in self._tracks:
                 if t.target == target and not t.hit:
                     t.contested = bool(len(spare)) and np.min(np.linalg.norm(spare - t.x[:3], axis=1)) < 0.2
-            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects) or are
-            # a lost track's ball after a throw or a stop (``_lost_ball``).
+            # Unmatched objects start tentative tracks, unless they sit on a live track (one ball, two objects), are
+            # a lost track's ball after a throw or a stop (``_lost_ball``), or are owned.
             live = np.array([t.x[:3] for t in self._tracks if t.target == target]).reshape(-1, 3)
             for j in np.flatnonzero(free):
                 if len(live) and np.min(np.linalg.norm(live - z[j], axis=1)) < s.min_separation:
                     continue
                 lost = self._lost_ball(target, z[j], R[j], time)
-                if lost is not None:
+                if lost is not None and not (owned[j] and np.linalg.norm(lost[0].x[3:]) >= s.confirm_speed > 0):
                     self._restart(*lost, z[j], R[j], objs[j], time)
+                elif owned[j]:
+                    continue
                 else:
                     self._tracks.append(self._new_track(target, z[j], R[j], objs[j], time, self._lost_near(target, z[j], time)))
                 live = np.vstack([live, z[j]])
+            self._shadowed(target, time)
         self._tracks = [t for t in self._tracks if not self._expired(t, time)]
         for t in self._tracks:
             # Where its ball was seen, not where the motion model carried it unseen: a still thing's track coasts on a
@@ -377,7 +408,7 @@ class TrackManager:
         unknown: ``_two_point`` gives it one next frame), keeping its id, its confirmation and its pace."""
         tr.arrival = pace
         tr.x, tr.P = self._first_state(z, R)
-        tr.last_hit, tr.streak, tr.hits, tr.hit, tr.n_particles = time, 1, 1, True, int(obj.n_particles)
+        tr.last_hit, tr.streak, tr.run, tr.hits, tr.hit, tr.n_particles = time, 1, 1, 1, True, int(obj.n_particles)
         tr.history, tr.parabola, tr.prediction, tr.caught_at, tr.top_speed = [], None, None, None, 0.0
         tr.seen_at = z.copy()
         tr.link = None
@@ -433,6 +464,7 @@ class TrackManager:
         """A track met an object: its lifecycle moves on."""
         tr.hits += 1
         tr.streak += 1
+        tr.run = tr.streak
         tr.hit = True
         tr.last_hit = time
         self._follow_flight(tr, z, R, time)
@@ -569,6 +601,38 @@ class TrackManager:
             inside &= ok & cam.in_image(uv)
         return inside
 
+    def _shadowed(self, target: str, time: float) -> None:
+        """Mark each of ``target``'s confirmed tracks missed this frame, seen fewer than SHADOW_RUN frames in a row
+        before, whose prediction lies on a hit track's ball in every view (``_on_balls``): the hit track has that ball."""
+        missed = [t for t in self._tracks if t.target == target and t.confirmed and not t.hit and t.run < SHADOW_RUN]
+        hit = [t for t in self._tracks if t.target == target and t.hit]
+        on = self._on_balls(target, np.array([t.x[:3] for t in missed]).reshape(-1, 3), hit, time)
+        for t, shadowed in zip(missed, on.any(axis=1)):
+            t.shadowed = bool(shadowed)
+
+    def _on_balls(self, target: str, points: np.ndarray, tracks: list[_Track], time: float) -> np.ndarray:
+        """Per point (N x 3) and track of ``target``: is the point, in every camera's image, within SHADOW_RADII ball
+        radii of the track's ball or of the streak it drew since the last frame? All false without a rig or the radius."""
+        near = np.zeros((len(points), len(tracks)), bool)
+        r = self.radius.get(target, 0.0)
+        if self.rig is None or not len(points) or not tracks or r <= 0.0:
+            return near
+        near[:] = True
+        dt = 0.0 if self._before is None else time - self._before
+        ends = np.array([t.x[:3] for t in tracks])
+        starts = ends - dt * np.array([t.x[3:] for t in tracks])
+        for cam in self.rig.cameras:
+            q, q_ok = cam.project(points)
+            b, b_ok, depth = cam.view(ends)
+            a, a_ok = cam.project(starts)
+            a = np.where(a_ok[:, None], a, b)  # a streak from behind the camera: its ball alone
+            # Distance from each point's pixel to each track's segment a -> b (its frame's streak).
+            ab = b - a
+            w = np.clip(np.einsum("nmk,mk->nm", q[:, None] - a[None], ab) / np.maximum(np.einsum("mk,mk->m", ab, ab), 1e-12), 0.0, 1.0)
+            gap = np.linalg.norm(q[:, None] - (a[None] + w[..., None] * ab[None]), axis=2)
+            near &= q_ok[:, None] & b_ok[None] & (gap <= SHADOW_RADII * cam.apparent_radius(r, depth)[None])
+        return near
+
     def _estimate(
         self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = (), smoothed: tuple = ()
     ) -> TrackEstimate:
@@ -576,7 +640,13 @@ class TrackManager:
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
         # A track seen once has no velocity to coast by (one confirmed by its first streak, ``_new_track``).
-        coasting_ok = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME and not tr.contested and in_view and tr.hits > 1
+        coasting_ok = (
+            tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME
+            and not tr.contested
+            and not tr.shadowed
+            and in_view
+            and tr.hits > 1
+        )
         reported = tr.confirmed and (tr.hit or coasting_ok)
         if self._caught_below_launch(tr, x):
             x = np.r_[tr.caught_at[0], 0.0, 0.0, 0.0]
