@@ -16,7 +16,7 @@ Once a frame is ``smooth_time`` old, each track gives its state there smoothed
 with the frames since (``TrackEstimate.smoothed``, a Rauch-Tung-Striebel
 smoother): tracks.csv writes that in place of the filter's.
 With a rig, two places metres apart along a ray that are one ball in every
-camera's image count as one ball (``_on_balls``): a track seen only off and
+camera's image count as one ball (``sight.on_balls``): a track seen only off and
 on that coasts where a hit track holds that ball is not reported, and an
 object on a steadily seen track's ball starts no track of its own.
 Objects of different targets never match each other; ids are positive
@@ -33,18 +33,20 @@ shrink it).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..camera import Rig
 from ..config import TrackSettings
-from ..results import Object3D, Parabola, TrackEstimate
+from ..results import Object3D, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
 from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model, moved_across_sight, robust_noise
-from .smoothing import FilterHistory, between_hits, hindsight_fills
+from .sight import in_view, on_balls
+from .smoothing import between_hits, hindsight_fills
+from .state import TrackState
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
@@ -67,9 +69,6 @@ LAUNCH_MARGIN = 1.5
 # away (motion_blur tune seed 19); lost longer, its reach holds other balls (fast_ball tune seed 6: one lost 0.6 s took
 # a new ball 7 m off).
 LAUNCH_TIME = 0.1
-# One ball in every view (``_on_balls``): within this many ball radii of a track's ball, or of the streak it drew since
-# the last frame, in every camera's image. Along a ray two places metres apart can be that: a 3D distance cannot tell.
-SHADOW_RADII = 2.0
 # A track seen fewer frames in a row than this before it was missed, coasting where a hit track's ball is in every view,
 # is not reported: it was that ball's ghost along the rays (fast_ball tune seed 414: confirmed 1.4 m off along a streak's
 # ray, it coasted beside the true track and was written for 9 frames). One seen steadily is a ball hidden behind
@@ -83,44 +82,6 @@ OWNER_RUN = 5
 SETTLED_FRAMES = 8  # ... or been shown this many frames (a ghost under it is learnt by then: motion.ABSORB_FRAMES; 10 lost a pendulum at a turning point)
 
 TENTATIVE, CONFIRMED, COASTING = "tentative", "confirmed", "coasting"
-
-
-@dataclass(eq=False)
-class _Track:
-    """One track's mutable filter state (private: the outside world sees TrackEstimate)."""
-
-    track_id: int
-    target: str
-    x: np.ndarray  # 6: position (m), velocity (m/s)
-    P: np.ndarray  # 6 x 6 covariance
-    time: float  # time of x and P, seconds
-    born: float  # time of the first hit
-    last_hit: float  # time of the latest hit
-    streak: int = 1  # hits in a row, this one included
-    run: int = 1  # hits in a row up to its latest hit (``streak`` is 0 once a frame was missed)
-    hits: int = 1  # hits since it was born
-    confirmed: bool = False
-    hit: bool = True  # matched in the latest update
-    contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
-    shadowed: bool = False  # unmatched, and where a hit track's ball is in every camera's image (``_shadowed``)
-    n_particles: int = 0
-    history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
-    in_flight: bool = False  # gravity applies to its prediction
-    parabola: Parabola | None = None  # while in flight: the parabola through its recent positions (for landing predictions)
-    prediction: tuple | None = None  # (to time, from time, in_flight, x, P, F): ``predicted`` then ``update`` predict once
-    launch: float | None = None  # while in flight: the height (along up, metres) its flight began at, about a hand's
-    seen_at: np.ndarray | None = None  # its position after its latest hit
-    caught_at: tuple | None = None  # (position, 3 x 3 covariance) at its latest hit while in flight: where a catch would hold it
-    arrival: float | None = None  # m/s: its speed when it was last caught or stopped, how fast it may be launched again
-    top_speed: float = 0.0  # m/s: its top speed at its hits since it was last under STOP_SPEED (0: it is slow)
-    first_shown: np.ndarray | None = None  # its predicted position the first frame it was past tentative
-    shown: int = 0  # frames it has been past tentative
-    settled: bool = False  # see ``TrackManager._settled``
-    travelled: bool = False  # see ``TrackManager._travelled``
-    early: list = field(default_factory=list)  # (time, position, 3 x 3 covariance, n_particles) while tentative (position None: missed)
-    entry: tuple | None = None  # (time of the frame before its first hit, its first hit as in ``early``) until judged (``_entered``)
-    link: tuple | None = None  # (x, P, F): this frame's prediction from the last; None where the state was set anew
-    past: FilterHistory = field(default_factory=FilterHistory)  # its frames within smooth_time, for smoothing
 
 
 class TrackManager:
@@ -142,7 +103,7 @@ class TrackManager:
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
         self._up = None if up is None else np.asarray(up, float) / np.linalg.norm(up)
-        self._tracks: list[_Track] = []
+        self._tracks: list[TrackState] = []
         self._next_id = 1
         self._time = self._before = None  # this update's time and the one before (None: none yet)
         self._models: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -158,7 +119,7 @@ class TrackManager:
         same time, e.g. to keep particles of one ball out of another ball.
         """
         states = [self._predict(tr, time)[:2] for tr in self._tracks]
-        seen = self._in_view(np.array([x[:3] for x, _ in states]).reshape(-1, 3))
+        seen = in_view(self.rig, np.array([x[:3] for x, _ in states]).reshape(-1, 3))
         return tuple(self._estimate(tr, x, P, v, self._settled(tr, x[:3])) for tr, (x, P), v in zip(self._tracks, states, seen))
 
     def update(self, objects: Sequence[Object3D], time: float) -> tuple[TrackEstimate, ...]:
@@ -246,7 +207,7 @@ class TrackManager:
         for t in self._tracks:
             if not t.confirmed and (t.hit or t.early):  # a frame missed between hits too, placed at confirmation (between_hits)
                 t.early.append((time, t.x[:3].copy() if t.hit else None, t.P[:3, :3].copy(), t.n_particles))
-        seen = self._in_view(np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
+        seen = in_view(self.rig, np.array([t.x[:3] for t in self._tracks]).reshape(-1, 3))
         smoothed = hindsight_fills([self._smoothed(t, time) for t in self._tracks], [t.target for t in self._tracks], self.radius)
         estimates = tuple(
             self._estimate(t, t.x, t.P, v, t.settled, self._entered(t) + between_hits(t.early) if t.confirmed else (), sm)
@@ -266,7 +227,7 @@ class TrackManager:
 
     # ------------------------------------------------------------------ steps
 
-    def _predict(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _predict(self, tr: TrackState, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The track's state and covariance predicted to ``time``, and the transition F that took it there."""
         dt = max(0.0, time - tr.time)
         if dt == 0.0:
@@ -281,7 +242,7 @@ class TrackManager:
         tr.prediction = (time, tr.time, tr.in_flight, x, P, F)
         return x.copy(), P.copy(), F
 
-    def _fast(self, tr: _Track) -> bool:
+    def _fast(self, tr: TrackState) -> bool:
         """Thrown (motion.FAST_FLIGHT): it flies under gravity and drag, and its objects are weighed robustly."""
         return self.gravity is not None and tr.confirmed and np.linalg.norm(tr.x[3:]) >= FAST_FLIGHT
 
@@ -306,7 +267,9 @@ class TrackManager:
             R[np.linalg.det(R) <= 0] += np.eye(3) * 1e-8
         return R
 
-    def _assign(self, tracks: list[_Track], z: np.ndarray, R: np.ndarray, time: float, still: np.ndarray) -> list[tuple[int, int, bool]]:
+    def _assign(
+        self, tracks: list[TrackState], z: np.ndarray, R: np.ndarray, time: float, still: np.ndarray
+    ) -> list[tuple[int, int, bool]]:
         """Gated global assignment: (track index, object index, caught) with squared Mahalanobis distance <= gate.
         A flying ball missed since its latest hit may have been caught: it is then near where it was last seen, not
         down its parabola. Each such track is also tried there (``_caught``); ``caught`` says that hypothesis won."""
@@ -333,7 +296,7 @@ class TrackManager:
         rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
         return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
 
-    def _caught(self, tr: _Track, time: float) -> tuple[np.ndarray, np.ndarray] | None:
+    def _caught(self, tr: TrackState, time: float) -> tuple[np.ndarray, np.ndarray] | None:
         """Where a ball would be had it stopped at its latest hit (a hand caught it, a wall stopped it): (position,
         covariance) around that hit, growing as a hand may carry it (HAND_SPEED). Asked of a flying ball missed since
         then, and of a fast ball not in flight (STOP_SPEED) the frame after; None otherwise."""
@@ -356,7 +319,7 @@ class TrackManager:
             if any(t.target == tr.target and np.linalg.norm(t.seen_at - tr.caught_at[0]) < near for t in seen):
                 tr.caught_at = None
 
-    def _catch(self, tr: _Track, time: float) -> None:
+    def _catch(self, tr: TrackState, time: float) -> None:
         """The ball was caught at its latest hit: it stops flying and starts again from there, at rest in a hand."""
         position, P = self._caught(tr, time)
         tr.arrival = max(float(np.linalg.norm(tr.x[3:])), tr.top_speed)  # the filter's speed lags a fast ball's
@@ -371,7 +334,7 @@ class TrackManager:
         tr.caught_at = None
         tr.link = None  # set anew: the smoother starts over here
 
-    def _pace(self, tr: _Track, sharp: bool) -> float | None:
+    def _pace(self, tr: TrackState, sharp: bool) -> float | None:
         """How fast the ball of a confirmed track not in flight may have gone since its latest hit where its motion model
         does not follow it, to be this object (``sharp``: ``_sharp``): one at rest since a catch or a stop, or slower
         than it came, may have been thrown again as fast as it came (its ``arrival``; a launch blurs: any object); a
@@ -386,7 +349,7 @@ class TrackManager:
             return tr.arrival
         return speed if tr.streak == 0 and sharp else None
 
-    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, time: float) -> tuple[_Track, float] | None:
+    def _lost_ball(self, target: str, z: np.ndarray, R: np.ndarray, time: float) -> tuple[TrackState, float] | None:
         """The track, missed this frame, whose ball this unmatched object may be, and its pace: the nearest within
         LAUNCH_MARGIN times its ``_pace`` since its latest hit of where it was then, lost for LAUNCH_TIME at most; None if
         none. A launch from rest (or a stop the frame after a miss) leaves the prediction behind: without this each throw
@@ -403,7 +366,7 @@ class TrackManager:
         k = int(np.argmin(np.where(dist <= reach, dist, np.inf)))
         return lost[k] if dist[k] <= reach[k] else None
 
-    def _restart(self, tr: _Track, pace: float, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+    def _restart(self, tr: TrackState, pace: float, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         """Its ball found again (``_lost_ball``): the track starts over at ``z`` as a new one would (seen once, velocity
         unknown: ``_two_point`` gives it one next frame), keeping its id, its confirmation and its pace."""
         tr.arrival = pace
@@ -413,7 +376,7 @@ class TrackManager:
         tr.seen_at = z.copy()
         tr.link = None
 
-    def _correct(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+    def _correct(self, tr: TrackState, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         z = np.ascontiguousarray(z, dtype=float)
         tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
         self._hit(tr, z, R, obj, time)
@@ -440,7 +403,7 @@ class TrackManager:
             self._hit(tr, z[j], R[j], objs[j], time)
             free[j] = False
 
-    def _start_moving(self, tr: _Track, first: np.ndarray, z: np.ndarray, R: np.ndarray, dt: float) -> None:
+    def _start_moving(self, tr: TrackState, first: np.ndarray, z: np.ndarray, R: np.ndarray, dt: float) -> None:
         """A track seen once at ``first`` takes its second object (``z``, noise ``R``) ``dt`` seconds on: the velocity
         is their difference, as uncertain as both. The first hit counts no sharper than the second, and FIRST_HIT_SIGMAS
         times vaguer than that: a ball coming in is cut by the image's edge (or found in part by particles that have
@@ -460,7 +423,7 @@ class TrackManager:
             F, Q, b = self._motion_model(dt, False)
             tr.link = (*kalman_predict(*past.restate_newest(R1, self.settings.max_speed), F, Q, b), F)
 
-    def _hit(self, tr: _Track, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
+    def _hit(self, tr: TrackState, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         """A track met an object: its lifecycle moves on."""
         tr.hits += 1
         tr.streak += 1
@@ -488,7 +451,7 @@ class TrackManager:
         if not tr.confirmed and tr.streak >= FAST_CONFIRM_HITS and fast:
             tr.confirmed = True
 
-    def _follow_flight(self, tr: _Track, z: np.ndarray, R: np.ndarray, time: float) -> None:
+    def _follow_flight(self, tr: TrackState, z: np.ndarray, R: np.ndarray, time: float) -> None:
         """Gravity only for a ball in free flight: a pendulum, a held or a rolling ball is not falling."""
         if self.gravity is None:
             return
@@ -513,7 +476,7 @@ class TrackManager:
             return False
         pos = np.array([t.x[:3] for t in lost])
         reach = np.array([self.settings.max_speed * max(time - t.last_hit, _EPS_TIME) for t in lost])
-        return bool((self._in_view(pos) & (np.linalg.norm(pos - z, axis=1) <= reach)).any())
+        return bool((in_view(self.rig, pos) & (np.linalg.norm(pos - z, axis=1) <= reach)).any())
 
     def _first_state(self, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(x, P) of a ball seen once, at ``z`` with noise ``R``: at rest, give or take init_speed_sigma."""
@@ -522,9 +485,9 @@ class TrackManager:
         P[3:, 3:] = np.eye(3) * self.settings.init_speed_sigma**2
         return np.r_[z, 0.0, 0.0, 0.0], P
 
-    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float, rival: bool = False) -> _Track:
+    def _new_track(self, target: str, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float, rival: bool = False) -> TrackState:
         x, P = self._first_state(z, R)
-        tr = _Track(self._next_id, target, x, P, time, time, time, n_particles=int(obj.n_particles))
+        tr = TrackState(self._next_id, target, x, P, time, time, time, n_particles=int(obj.n_particles))
         # A fast ball's streaks in two cameras that triangulate where its particles are, to within two ball radii:
         # clutter leaves no streaks, and a thrown ball is seen for a few frames only (waiting for three hits lost the
         # first two of every throw). A far one's depth is vaguer: reported there, it would be a miss and a false track.
@@ -535,12 +498,12 @@ class TrackManager:
         self._next_id += 1
         return tr
 
-    def _entered(self, tr: _Track) -> list:
+    def _entered(self, tr: TrackState) -> list:
         """``motion.entering``, once a confirmed track has FAST_CONFIRM_HITS hits (a velocity to go back by)."""
         if tr.entry is None or not tr.confirmed or tr.hits < FAST_CONFIRM_HITS:
             return []
         entry, tr.entry = tr.entry, None
-        return entering(entry, tr.x, tr.P, self.settings.confirm_speed, self._in_view)
+        return entering(entry, tr.x, tr.P, self.settings.confirm_speed, partial(in_view, self.rig))
 
     def _sharp(self, target: str, R: np.ndarray) -> np.ndarray:
         """Per measurement covariance (... x 3 x 3): placed to within SWEPT_CONFIRM_RADII ball radii (one sigma, its
@@ -548,7 +511,7 @@ class TrackManager:
         sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(R)[..., -1], 0.0))
         return sigma <= SWEPT_CONFIRM_RADII * self.radius.get(target, 0.0)
 
-    def _settled(self, tr: _Track, position: np.ndarray) -> bool:
+    def _settled(self, tr: TrackState, position: np.ndarray) -> bool:
         """Has this track, at ``position`` this frame, gone TRAVEL ball radii from where it was first past tentative,
         or been past tentative SETTLED_FRAMES frames (this one included)? Then its ball may keep the background from
         learning its disc (evidence/motion.py). A new track that has not moved may sit on a ghost (a ball that was
@@ -561,7 +524,7 @@ class TrackManager:
         radius = self.radius.get(tr.target, np.inf)
         return tr.shown + 1 >= SETTLED_FRAMES or bool(np.linalg.norm(position - start) > TRAVEL * radius)
 
-    def _travelled(self, tr: _Track, position: np.ndarray) -> bool:
+    def _travelled(self, tr: TrackState, position: np.ndarray) -> bool:
         """Has this track, at ``position``, gone TRAVEL ball radii from where it was first past tentative, across some
         camera's line of sight (with a rig; else in any direction)? Scenery does not move: its ball is a thing that moves
         (``TrackEstimate.travelled``). Across the line of sight, as a camera sees it move: a far still thing's depth is
@@ -571,7 +534,7 @@ class TrackManager:
         centres = None if self.rig is None else [cam.centre for cam in self.rig.cameras]
         return moved_across_sight(start, position, TRAVEL * self.radius.get(tr.target, np.inf), centres)
 
-    def _smoothed(self, tr: _Track, time: float) -> tuple:
+    def _smoothed(self, tr: TrackState, time: float) -> tuple:
         """Keep this frame's state; give each frame smooth_time old by now smoothed with the later ones (FilterHistory.
         revise_until); none with smooth_time 0. A filter's estimate at a frame knows only the frames before it: a far
         ball's depth, a pixel of disparity off in one frame, pulls the track off for several. The smoother's knows the frames
@@ -583,70 +546,38 @@ class TrackManager:
         tr.past.append(time, tr.x, tr.P, tr.link, (tr.confirmed or tr.hit) and not self._caught_below_launch(tr, tr.x), tr.hit)
         return tr.past.revise_until(time - window + _EPS_TIME, tr.confirmed)
 
-    def _caught_below_launch(self, tr: _Track, x: np.ndarray) -> bool:
+    def _caught_below_launch(self, tr: TrackState, x: np.ndarray) -> bool:
         """Is this track, missed at state ``x``, a flying ball lost on its way down past the height it was thrown from?
         Then it was most likely caught there, and is reported where it was last seen (``_estimate``)."""
         return bool(not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch)
 
-    def _expired(self, tr: _Track, time: float) -> bool:
+    def _expired(self, tr: TrackState, time: float) -> bool:
         return time - tr.last_hit > (self.settings.delete_time if tr.confirmed else self.settings.tentative_time) + _EPS_TIME
-
-    def _in_view(self, positions: np.ndarray) -> np.ndarray:
-        """Per position: inside every camera's image (always true without a rig)."""
-        inside = np.ones(len(positions), bool)
-        if self.rig is None or not len(positions):
-            return inside
-        for cam in self.rig.cameras:
-            uv, ok = cam.project(positions)
-            inside &= ok & cam.in_image(uv)
-        return inside
 
     def _shadowed(self, target: str, time: float) -> None:
         """Mark each of ``target``'s confirmed tracks missed this frame, seen fewer than SHADOW_RUN frames in a row
-        before, whose prediction lies on a hit track's ball in every view (``_on_balls``): the hit track has that ball."""
+        before, whose prediction lies on a hit track's ball in every view (``sight.on_balls``): the hit track has that ball."""
         missed = [t for t in self._tracks if t.target == target and t.confirmed and not t.hit and t.run < SHADOW_RUN]
         hit = [t for t in self._tracks if t.target == target and t.hit]
         on = self._on_balls(target, np.array([t.x[:3] for t in missed]).reshape(-1, 3), hit, time)
         for t, shadowed in zip(missed, on.any(axis=1)):
             t.shadowed = bool(shadowed)
 
-    def _on_balls(self, target: str, points: np.ndarray, tracks: list[_Track], time: float) -> np.ndarray:
-        """Per point (N x 3) and track of ``target``: is the point, in every camera's image, within SHADOW_RADII ball
-        radii of the track's ball or of the streak it drew since the last frame? All false without a rig or the radius."""
-        near = np.zeros((len(points), len(tracks)), bool)
-        r = self.radius.get(target, 0.0)
-        if self.rig is None or not len(points) or not tracks or r <= 0.0:
-            return near
-        near[:] = True
+    def _on_balls(self, target: str, points: np.ndarray, tracks: list[TrackState], time: float) -> np.ndarray:
+        """``sight.on_balls`` for ``target``'s ``tracks`` at this update's ``time``."""
         dt = 0.0 if self._before is None else time - self._before
-        ends = np.array([t.x[:3] for t in tracks])
-        starts = ends - dt * np.array([t.x[3:] for t in tracks])
-        for cam in self.rig.cameras:
-            q, q_ok = cam.project(points)
-            b, b_ok, depth = cam.view(ends)
-            a, a_ok = cam.project(starts)
-            a = np.where(a_ok[:, None], a, b)  # a streak from behind the camera: its ball alone
-            # Distance from each point's pixel to each track's segment a -> b (its frame's streak).
-            ab = b - a
-            w = np.clip(np.einsum("nmk,mk->nm", q[:, None] - a[None], ab) / np.maximum(np.einsum("mk,mk->m", ab, ab), 1e-12), 0.0, 1.0)
-            gap = np.linalg.norm(q[:, None] - (a[None] + w[..., None] * ab[None]), axis=2)
-            near &= q_ok[:, None] & b_ok[None] & (gap <= SHADOW_RADII * cam.apparent_radius(r, depth)[None])
-        return near
+        motion = np.array([t.x for t in tracks]).reshape(-1, 6)
+        return on_balls(self.rig, self.radius.get(target, 0.0), points, motion[:, :3], motion[:, 3:], dt)
 
     def _estimate(
-        self, tr: _Track, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = (), smoothed: tuple = ()
+        self, tr: TrackState, x: np.ndarray, P: np.ndarray, in_view: bool, settled: bool, before: list = (), smoothed: tuple = ()
     ) -> TrackEstimate:
         state = TENTATIVE if not tr.confirmed else (CONFIRMED if tr.hit else COASTING)
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
         # A track seen once has no velocity to coast by (one confirmed by its first streak, ``_new_track``).
-        coasting_ok = (
-            tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME
-            and not tr.contested
-            and not tr.shadowed
-            and in_view
-            and tr.hits > 1
-        )
+        recent = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME
+        coasting_ok = recent and in_view and tr.hits > 1 and not (tr.contested or tr.shadowed)
         reported = tr.confirmed and (tr.hit or coasting_ok)
         if self._caught_below_launch(tr, x):
             x = np.r_[tr.caught_at[0], 0.0, 0.0, 0.0]
