@@ -173,9 +173,7 @@ class TrackManager:
             owned = np.zeros(len(objs), bool)
             owned[free] = self._on_balls(target, z[free], owners, time).any(axis=1)
             if s.max_speed > 0:
-                unowned = free & ~owned
-                self._two_point(target, z, R, objs, unowned, time)
-                free &= unowned | owned
+                self._two_point(target, z, R, objs, free, owned, time)
             # A missed track with an unmatched object of its colour nearby was lost by its motion model
             # (an abrupt catch): its prediction is not worth reporting.
             spare = z[free]
@@ -381,13 +379,16 @@ class TrackManager:
         tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
         self._hit(tr, z, R, obj, time)
 
-    def _two_point(self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, time: float) -> None:
+    def _two_point(
+        self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, owned: np.ndarray, time: float
+    ) -> None:
         """Two-point start of fast balls: a track seen once whose second object fell outside its gate (a ball thrown at
         20 m/s moves a third of a metre between frames at 60 fps; a velocity prior of a few m/s gates a few centimetres)
-        takes the nearest unmatched object within ``max_speed`` of it, and its velocity from the two. A static ball's
-        noisy first objects still meet in the ordinary gate, where the prior keeps its velocity small."""
+        takes the nearest unmatched object within ``max_speed`` of it (not one ``owned`` by a steady track's ball), and its
+        velocity from the two. A static ball's noisy first objects still meet in the ordinary gate, where the prior keeps
+        its velocity small."""
         young = [t for t in self._tracks if t.target == target and not t.hit and t.hits == 1]
-        cols = np.flatnonzero(free)
+        cols = np.flatnonzero(free & ~owned)
         if not young or not len(cols):
             return
         first = np.array([t.x[:3] for t in young])  # a track seen once has no velocity: its prediction is where it was seen

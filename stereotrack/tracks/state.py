@@ -27,7 +27,7 @@ class TrackState:
     confirmed: bool = False
     hit: bool = True  # matched in the latest update
     contested: bool = False  # unmatched, but an unmatched object of its colour is near: the motion model, not the detector, failed
-    shadowed: bool = False  # unmatched, and where a hit track's ball is in every camera's image (``_shadowed``)
+    shadowed: bool = False  # unmatched, and where a hit track's ball is in every camera's image (``TrackManager._shadowed``)
     n_particles: int = 0
     history: list = field(default_factory=list)  # (time, position) of recent well-measured hits
     in_flight: bool = False  # gravity applies to its prediction
