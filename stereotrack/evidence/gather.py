@@ -193,6 +193,7 @@ class CameraEvidence:
                 ball,
                 rows,
                 still,
+                in_range if colour_table is not None else None,
             )
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still, faint)
 
@@ -402,13 +403,45 @@ DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blo
 # p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
 # or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
 SURE = 191
+# A ball whose colour the model doubts pixel by pixel (a room full of its hue: p near 0.5 on its body) is a speckled disc
+# in the mask and nowhere sure; the range's blob of it stands for it when the model leans to the ball over the blob as a
+# whole (mean p x 255; hue_wall tune seed 51: 174-185 on the ball, 119-160 on the walls' pieces that pass ball_like) and
+# it is round: about as wide as long, filling its ellipse as a disc does, and under the share of its box a rectangle
+# fills (a disc fills pi / 4 = 0.79 of it; pieces of a wall between a shelf's boards, which the model may lean to too,
+# fill it whole: hue_wall tune seed 86).
+LEANS = 160
+ROUND_ASPECT, ROUND_FILL, ROUND_BOX = 1.3, 0.85, 0.88
 
 
-def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_blob_area, ball, rows=None, still=None) -> Seeds:
+def _round_and_leaning(blobs: Blobs, ids: np.ndarray, soft: np.ndarray, in_range: np.ndarray) -> np.ndarray:
+    """Per blob ``ids`` of the range (bool): is it round (ROUND_*) and is the mean of ``soft`` over the range's pixels in
+    its box at least LEANS? A handful of blobs a frame pass ball_like and are held by no seed: a loop over them."""
+    out = np.zeros(len(ids), bool)
+    if blobs.axes is None or blobs.boxes is None:  # the histogram finder measures no shape
+        return out
+    for k, i in enumerate(ids):
+        x0, y0, x1, y1 = (blobs.boxes[i] * blobs.label_scale).astype(int)
+        semi_major, semi_minor = blobs.axes[i]
+        box_fill = blobs.areas[i] / max((x1 - x0) * (y1 - y0), 1)
+        ellipse_fill = blobs.areas[i] / max(np.pi * semi_major * semi_minor, 1.0)
+        if semi_major > ROUND_ASPECT * semi_minor or ellipse_fill < ROUND_FILL or box_fill > ROUND_BOX:
+            continue
+        ranged = in_range[y0:y1, x0:x1] > 0
+        out[k] = ranged.any() and soft[y0:y1, x0:x1][ranged].mean() >= LEANS
+    return out
+
+
+def _seeds(
+    camera, blobs, origins, directions, moving, soft, blob_method, min_blob_area, ball, rows=None, still=None, in_range=None
+) -> Seeds:
     """Ball-like blobs of the colour mask, then those of its moving part that are not the same blob again
     (a ball moving in front of a wall of its colour is a blob of its own only in the moving part), then, when
     a colour blob was no ball (a ball merged with scenery of its hue: a hand, a prop, a wall), the ball-like
-    blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet.
+    blobs of the colour that is surely the ball's (``soft`` above SURE; None: no colour model) that no seed holds yet,
+    then the round ones of the whole range (``in_range``, the mask before the colour model) that none holds and over
+    which the model leans to the ball (_round_and_leaning): where the room has much of the ball's colour, the model
+    keeps its body's pixels only here and there, a speckled disc that fills too little of its ellipse (hue_wall tune
+    seed 51: no seed in 16 frames of a ball before a pale wall).
     With motion, a streak that does not move (``still``, still_streaks) is no ball."""
     keep = ball_like(blobs, camera.focal_px, *ball) if ball is not None else np.ones(len(blobs), bool)
     mb = find_blobs(moving, blob_method, min_blob_area, rows) if moving is not None else None
@@ -441,14 +474,17 @@ def _seeds(camera, blobs, origins, directions, moving, soft, blob_method, min_bl
         take(mb, new, True)
     if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
-        sb = find_blobs(sure, blob_method, min_blob_area, rows)
-        new = ball_like(sb, camera.focal_px, *ball)
-        new &= ~still_streaks(sb, moving)
-        held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
-        if len(sb) and len(held_c):
-            dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)
-            new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
-        take(sb, new, False)
+        for more in (sure, in_range) if in_range is not None else (sure,):
+            sb = find_blobs(more, blob_method, min_blob_area, rows)
+            new = ball_like(sb, camera.focal_px, *ball)
+            new &= ~still_streaks(sb, moving)
+            held_c, held_r = np.vstack(centres).reshape(-1, 2), np.concatenate(radii)
+            if len(sb) and len(held_c):
+                dist = np.linalg.norm(sb.centres[:, None] - held_c[None], axis=2)
+                new &= ~(dist < np.maximum(held_r[None], DUPLICATE_PX)).any(axis=1)
+            if more is in_range and new.any():
+                new[new] = _round_and_leaning(sb, np.nonzero(new)[0], soft, in_range)
+            take(sb, new, False)
     return Seeds(
         np.vstack(centres).reshape(-1, 2),
         np.concatenate(radii),

@@ -210,3 +210,36 @@ def test_a_half_disc_is_lopsided_across_its_axis_and_a_short_blur_is_not():
     assert short_streaks(b, m)[halves].all() and short_streaks(b, m)[blurs].all()  # alike to the short-blur rule
     assert (minor_skew(b, m, halves) > 0.15).all(), minor_skew(b, m, halves)
     assert (minor_skew(b, m, blurs) < 0.06).all(), minor_skew(b, m, blurs)
+
+
+def test_a_ball_whose_colour_the_model_doubts_pixel_by_pixel_still_seeds_from_the_range_where_it_is_round():
+    """Where the room holds much of the ball's colour, p(ball | colour) of the ball's own pixels sits near 0.5 and
+    the mask keeps them here and there: a speckled disc that is no ball, and no pixel is surely the ball's. The
+    range's blob is then a seed if it is round and the model leans to the ball over it as a whole; a speckled
+    square (a piece of a wall between a shelf's uprights) or a disc the model leans against is not."""
+    from scene_helpers import default_rig
+
+    from stereotrack.evidence.colour_model import H_BINS, HUE_STEP, S_BINS, SAT_STEP
+    from stereotrack.evidence.gather import CameraEvidence
+
+    camera = default_rig().cameras[0]
+    rng = np.random.default_rng(3)
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    table = np.zeros((H_BINS, S_BINS), np.uint8)
+    table[100 // HUE_STEP, 220 // SAT_STEP] = 250  # sure
+    table[100 // HUE_STEP, 100 // SAT_STEP] = 110  # p 0.43: out of the mask
+
+    def speckled(shape, kept_share):
+        region = np.zeros((480, 640), np.uint8)
+        shape(region)
+        ys, xs = np.nonzero(region)
+        sat = np.where(rng.random(len(ys)) < kept_share, 220, 100)
+        hsv[ys, xs] = np.stack([np.full(len(ys), 100), sat, np.full(len(ys), 200)], axis=1)
+
+    speckled(lambda m: cv2.circle(m, (350, 250), 20, 1, -1), 0.42)  # the ball: p 0.67 on average, 42 % of it in the mask
+    speckled(lambda m: cv2.rectangle(m, (100, 100), (140, 140), 1, -1), 0.42)  # a square of the same colours
+    speckled(lambda m: cv2.circle(m, (500, 380), 20, 1, -1), 0.2)  # a disc the model leans against: p 0.54
+    in_range = (hsv[:, :, 1] > 0).astype(np.uint8)
+    ev = CameraEvidence.from_mask(camera, in_range, ball=(R, 0.3, 5.0), colour_table=table, hsv=hsv)
+    seeds = ev.proposal_seeds()
+    assert len(seeds) == 1 and np.linalg.norm(seeds.centres[0] - (350, 250)) < 2 and 15 < seeds.radii[0] < 25
