@@ -193,7 +193,7 @@ class CameraEvidence:
                 ball,
                 rows,
                 still,
-                in_range if colour_table is not None else None,
+                in_range,
             )
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still, faint)
 
@@ -474,7 +474,7 @@ def _seeds(
         take(mb, new, True)
     if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
-        for more in (sure, in_range) if in_range is not None else (sure,):
+        for more in (sure,) if in_range is None else (sure, in_range):
             sb = find_blobs(more, blob_method, min_blob_area, rows)
             new = ball_like(sb, camera.focal_px, *ball)
             new &= ~still_streaks(sb, moving)
