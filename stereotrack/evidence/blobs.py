@@ -38,6 +38,12 @@ class Blobs:
         this only for blobs no tracked ball holds."""
         return self.widths if self.widths is not None else self.radii
 
+    def ellipse_fills(self) -> np.ndarray:
+        """Per blob (components only): the share of the ellipse with its second moments that its pixels fill (a disc or a
+        streak about 1, a ring or a scatter little), its semi-axes read as at least half a pixel."""
+        axes = np.maximum(self.axes, 0.5)
+        return self.areas / np.maximum(np.pi * axes[:, 0] * axes[:, 1], 1.0)
+
     def pixel_boxes(self, ids: np.ndarray) -> np.ndarray:
         """Per blob ``ids`` (components only): the box (x0, y0, x1, y1, end exclusive, pixels, not clipped to the image)
         its ``areas`` and moments were measured in: its box of label cells grown by one cell, as the labels are of a
@@ -235,5 +241,4 @@ def ball_like(blobs: Blobs, focal_px: float, radius: float, d_min: float, d_max:
     # apparent radii at d_min and at d_max; d_min 0 (from the camera on) allows any size up close
     near, far = (focal_px * radius / d_min if d_min > 0 else np.inf), focal_px * radius / d_max
     sized = (semi_minor <= near * DEPTH_SLACK) & (semi_minor >= far / DEPTH_SLACK)
-    fill = blobs.areas / np.maximum(np.pi * np.maximum(blobs.axes[:, 0], 0.5) * semi_minor, 1.0)
-    return sized & (fill >= FILL)
+    return sized & (blobs.ellipse_fills() >= FILL)

@@ -415,17 +415,15 @@ ROUND_ASPECT, ROUND_FILL, ROUND_BOX = 1.3, 0.85, 0.88
 
 def _round_and_leaning(blobs: Blobs, ids: np.ndarray, soft: np.ndarray, in_range: np.ndarray) -> np.ndarray:
     """Per blob ``ids`` of the range (bool): is it round (ROUND_*) and is the mean of ``soft`` over the range's pixels in
-    its box at least LEANS? A handful of blobs a frame pass ball_like and are held by no seed: a loop over them."""
-    out = np.zeros(len(ids), bool)
+    its box at least LEANS? A handful of blobs a frame pass ball_like and are held by no seed: a loop over the round ones."""
     if blobs.axes is None or blobs.boxes is None:  # the histogram finder measures no shape
-        return out
-    for k, i in enumerate(ids):
-        x0, y0, x1, y1 = (blobs.boxes[i] * blobs.label_scale).astype(int)
-        semi_major, semi_minor = blobs.axes[i]
-        box_fill = blobs.areas[i] / max((x1 - x0) * (y1 - y0), 1)
-        ellipse_fill = blobs.areas[i] / max(np.pi * semi_major * semi_minor, 1.0)
-        if semi_major > ROUND_ASPECT * semi_minor or ellipse_fill < ROUND_FILL or box_fill > ROUND_BOX:
-            continue
+        return np.zeros(len(ids), bool)
+    boxes = (blobs.boxes[ids] * blobs.label_scale).astype(int)
+    box_fills = blobs.areas[ids] / np.maximum((boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1]), 1)
+    semi_major, semi_minor = blobs.axes[ids].T
+    out = (semi_major <= ROUND_ASPECT * semi_minor) & (blobs.ellipse_fills()[ids] >= ROUND_FILL) & (box_fills <= ROUND_BOX)
+    for k in np.flatnonzero(out):
+        x0, y0, x1, y1 = boxes[k]
         ranged = in_range[y0:y1, x0:x1] > 0
         out[k] = ranged.any() and soft[y0:y1, x0:x1][ranged].mean() >= LEANS
     return out
