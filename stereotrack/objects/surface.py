@@ -114,6 +114,19 @@ _DIRECTIONS = np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=-1)  # A x 2: th
 # every one 9-13 pixels in radius in both views, a whole disc outlined all round in each; things it dropped, 125, every
 # one 4-5 pixels (a book's end on a shelf at 4 m, hue_wall seeds 68, 147), shaped and outlined too.
 WHOLE_MIN_PX = 6.0
+# ... and in no view lies in a bar of its colour as wide as it: a blob BAR_LENGTH or more of its apparent radii long
+# (semi-major axis), at most BAR_FLAT as wide as long, and BAR_WIDTH of its radii wide (semi-minor axis: a bar as wide as
+# the ball reads 1.15). The end of a slat or a stripe that a shelf cuts short fills a ball's disc with most of its ring
+# empty; seen with a piece of the same slats that is a ball's shape in the other view, it was a ball at rest for the
+# whole scene (hue_wall tune seed 147: two such, 1.1 radii wide, and the ball that flew was never tracked). A ball at
+# rest touching the end of a narrower stripe of its hue, or merged with wider things of it, is not in such a bar (tune
+# seeds 14, 56: 0.6 and 1.9 radii; each ball lost for the whole scene with any width taken).
+BAR_LENGTH = 2.5
+BAR_FLAT = 0.5
+BAR_WIDTH = (0.85, 1.5)
+# ... and it lies at the bar's end, within BAR_END of its radii: a ball at rest before the middle of a stripe of its hue
+# merges with it into a bar as wide (hue_wall tune seed 78: dropped, a ball lost for 68 frames)
+BAR_END = 2.0
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
 
@@ -224,6 +237,29 @@ def ball_shaped(position: np.ndarray, radius: float, views: Sequence[CameraEvide
         axes = b.axes[k][1] / max(b.axes[k][0], 1e-6)
         if sized and ROUND_FILL <= fill <= ROUND_FILL_MAX and axes >= ROUND_AXES:
             return True
+    return False
+
+
+def in_bar(position: np.ndarray, radius: float, views: Sequence[CameraEvidence]) -> bool:
+    """Does a ball at ``position`` lie, in some view, at the end of a bar of its colour as wide as it: its centre's pixel
+    in a blob BAR_LENGTH or more of its apparent radii long, at most BAR_FLAT as wide as long and BAR_WIDTH of its radii
+    wide, within BAR_END of its radii of the blob's end? Blobs without labels say nothing."""
+    for v in views:
+        b = v.blobs
+        if b.axes is None or b.labels is None or not len(b):
+            continue
+        uv, r = _seen(v.camera, position, radius)
+        if r <= 0:
+            continue
+        x, y = int(uv[0]) // b.label_scale, int(uv[1]) // b.label_scale
+        if not (0 <= y < b.labels.shape[0] and 0 <= x < b.labels.shape[1]):
+            continue
+        k = b.label_blob[b.labels[y, x]]
+        major, minor = b.axes[k] if k >= 0 else (0.0, 0.0)
+        if major >= BAR_LENGTH * r and minor <= BAR_FLAT * major and BAR_WIDTH[0] * r <= minor <= BAR_WIDTH[1] * r:
+            along = abs(float(np.dot(uv - b.centres[k], b.major[k])))  # a bar's half length is sqrt(3) / 2 its semi-major axis
+            if np.sqrt(3.0) / 2.0 * major - along <= BAR_END * r:
+                return True
     return False
 
 
@@ -364,7 +400,10 @@ class SurfacePatches:
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
                 continue
             if self.shapes and (
-                not (ball_shaped(o.position, self.radius, views) or self._rimmed(o.position, images))
+                not (
+                    (ball_shaped(o.position, self.radius, views) and not in_bar(o.position, self.radius, views))
+                    or self._rimmed(o.position, images)
+                )
                 or flat(o.position, self.radius, self.cameras, images, self.colour)
             ):
                 out[k] = True

@@ -14,6 +14,7 @@ from stereotrack.objects.surface import (
     SurfacePatches,
     ball_shaped,
     flat,
+    in_bar,
     on_surface,
     rimmed,
     surface_ratio,
@@ -134,7 +135,8 @@ def test_a_surround_that_matches_at_the_objects_depth_both_ways_is_a_surface_at_
 
 def _shapes_views(rig, at, shape: str, scale: float = 1.0, moving: bool = False, radius: float = RADIUS):
     """Each camera's evidence of one pink thing drawn at ``at``'s projection: a disc of ``scale`` times a ball's apparent
-    radius there, or a square or a flat box as wide as that ball; still, or moving all over."""
+    radius there, a square or a flat box as wide as that ball, or a bar ``scale`` times as wide reaching seven radii up
+    from under the ball's centre (a slat that a shelf cuts short); still, or moving all over."""
     views = []
     for cam in rig.cameras:
         uv, _, z = cam.view(np.asarray(at, float)[None])
@@ -143,6 +145,9 @@ def _shapes_views(rig, at, shape: str, scale: float = 1.0, moving: bool = False,
         mask = np.zeros((cam.height, cam.width), np.uint8)
         if shape == "disc":
             cv2.circle(mask, (u, v), int(round(scale * r)), 1, -1)
+        elif shape == "bar":
+            k, h = int(round(r)), int(round(scale * r))
+            mask[v - 6 * k : v + k + 1, u - h : u + h + 1] = 1
         else:  # a square, or a box as wide and 0.6 as high (a bottle on its side: fills 0.76, axes 0.6)
             k, h = int(round(r)), int(round(r * (0.6 if shape == "box" else 1.0)))
             mask[v - h : v + h + 1, u - k : u + k + 1] = 1
@@ -174,6 +179,38 @@ def test_a_still_thing_that_shows_as_no_ball_in_any_view_is_dropped():
     square = _shapes_views(rig, at, "square")
     assert patches.drop(thing, _shapes_views(rig, at, "square", moving=True), plain, nothing_travelled, 0.0).tolist() == [False]
     assert patches.drop(thing, square, plain, at[None] + 0.01, 0.0).tolist() == [False]
+
+
+def test_a_still_thing_at_the_end_of_a_bar_of_its_colour_in_one_view_is_no_ball_though_a_disc_in_the_other():
+    """A slat of the ball's colour that a shelf cuts short ends in a ball's disc with most of its ring empty; with a piece
+    of the same slats that is a ball's shape in the other view, it was a ball at rest for the whole scene (hue_wall tune
+    seed 147). A still thing whose image lies in a bar of its colour in some view (``in_bar``: BAR_LENGTH or more of its
+    radii long, at most BAR_FLAT as long and BAR_WIDTH of its radii wide) is dropped; a disc there is a ball, and so is one
+    at the end of a bar narrower or wider than it (a ball at rest touching a stripe of its hue, hue_wall tune seeds 14,
+    56); a moving bar is not judged."""
+    rig = default_rig()
+    at = np.array([0.1, 1.5, 0.05])
+    thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+    patches, plain = SurfacePatches(RADIUS, rig.cameras), _draw(rig, False, ball=at)
+    disc, bar = _shapes_views(rig, at, "disc"), _shapes_views(rig, at, "bar")
+    wide, narrow = _shapes_views(rig, at, "bar", scale=2.0), _shapes_views(rig, at, "bar", scale=0.4)
+    for n, m in enumerate(narrow):  # the ball's disc at the narrow bar's end: one blob
+        uv, _, z = m.camera.view(at[None])
+        mask = m.mask.copy()
+        cv2.circle(mask, tuple(int(round(c)) for c in uv[0]), int(round(m.camera.apparent_radius(RADIUS, z[0]))), 1, -1)
+        narrow[n] = CameraEvidence.from_mask(m.camera, mask, foreground=np.zeros((mask.shape[0] // 2, mask.shape[1] // 2), np.uint8))
+    for views, dropped in [
+        (disc, False),
+        ([disc[0], bar[1]], True),
+        ([bar[0], disc[1]], True),
+        ([disc[0], wide[1]], False),
+        ([disc[0], narrow[1]], False),
+    ]:
+        assert ball_shaped(at, RADIUS, views)  # a disc of a ball's size in some view: the shape test alone kept it
+        assert in_bar(at, RADIUS, views) is dropped
+        assert patches.drop(thing, views, plain, np.zeros((0, 3)), 0.0).tolist() == [dropped]
+    moving = [disc[0], _shapes_views(rig, at, "bar", moving=True)[1]]
+    assert patches.drop(thing, moving, plain, np.zeros((0, 3)), 0.0).tolist() == [False]
 
 
 def test_a_still_thing_of_one_flat_colour_in_every_view_is_no_ball():
