@@ -95,8 +95,9 @@ class TrackerSettings:
         "an object still in every view whose surroundings match between two views at its own depth is a patch of the surface "
         "it is seen on (a book's end, a poster's corner of the ball's colour), not a ball before it, unless it shows as a whole "
         "ball in every view, 6 pixels or more in radius (a ball at rest against a wall), and one of a coloured target "
-        "whose blob is a ball's disc of the size at its depth in no view (unless, before things of its colour, its outline "
-        "shows all round), or that is one flat colour in every view (a sticker), is no ball: both dropped (with motion only)",
+        "whose blob is a ball's disc of the size at its depth in no view, or that lies at the end of a bar of its colour as "
+        "wide as it in some view (unless, before things of its colour, its outline shows all round), or that is one flat "
+        "colour in every view (a sticker), is no ball: both dropped (with motion only)",
     )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
