@@ -400,11 +400,7 @@ class SurfacePatches:
             if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
                 continue
             if self.shapes and (
-                not (
-                    (ball_shaped(o.position, self.radius, views) and not in_bar(o.position, self.radius, views))
-                    or self._rimmed(o.position, images)
-                )
-                or flat(o.position, self.radius, self.cameras, images, self.colour)
+                not self._shows_as_ball(o.position, views, images) or flat(o.position, self.radius, self.cameras, images, self.colour)
             ):
                 out[k] = True
                 continue
@@ -412,6 +408,12 @@ class SurfacePatches:
                 continue
             out[k] = self.on_surface(o.position, images, now)
         return out
+
+    def _shows_as_ball(self, position: np.ndarray, views: Sequence[CameraEvidence], images: Sequence[np.ndarray]) -> bool:
+        """A disc of a ball's size in some view and at no bar's end in any (``ball_shaped``, ``in_bar``), or its outline all
+        round before things of its colour (``rimmed``)."""
+        shaped = ball_shaped(position, self.radius, views) and not in_bar(position, self.radius, views)
+        return shaped or self._rimmed(position, images)
 
     def _rimmed(self, position: np.ndarray, images: Sequence[np.ndarray]) -> bool:
         """``rimmed``, with the target's range (none given: never)."""
