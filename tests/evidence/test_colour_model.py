@@ -369,3 +369,29 @@ def test_a_wall_of_the_balls_colour_that_something_passes_before_is_still_taught
     for _ in range(30):
         model.learn(hsv, target_mask(hsv, PINK), np.array([[400.0, 240.0]]), np.array([18.0]), moving)
     assert model.probability(hsv)[240, 400] / 255.0 > 0.5
+
+
+def test_a_holding_hands_skin_is_not_taught_as_the_ball_though_the_room_holds_too_little_of_it_to_refuse():
+    """HOLDER: a ball held deep in the hand (the fingers over its core from above its centre), the other hand empty and
+    moving, no face: the room holds too little of the skin for SPREAD to refuse it, and it was taught until the empty
+    hand was a ball (hands tune seed 59: skin a third of the ball's histogram). The holding hand goes on round the
+    ball, its skin as dense in a ring around the ball as on its core: a holder's colour, not the ball's."""
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:] = (100, 30, 150)
+    skin = np.zeros((480, 640), bool)
+    skin[HELD[1] - 5 : HELD[1] + 20, HELD[0] - 16 : HELD[0] + 16] = True  # the holding hand, over the core's lower half
+    cv2.circle(hsv, HELD, 12, ORANGE_HSV, -1)
+    skin[EMPTY[1] - 12 : EMPTY[1] + 12, EMPTY[0] - 12 : EMPTY[0] + 12] = True
+    ys, xs = np.nonzero(skin)
+    hsv[ys, xs] = np.where(((xs // 4) % 2 == 0)[:, None], SKIN_HSV[0], SKIN_HSV[1])
+    foreground = np.zeros((480, 640), np.uint8)
+    foreground[EMPTY[1] - 14 : EMPTY[1] + 14, EMPTY[0] - 14 : EMPTY[0] + 14] = 1  # the empty hand moves
+    in_range = target_mask(hsv, ORANGE)
+    model = ColourModel.for_target(ORANGE)
+    for frame in range(40):  # the held ball is tracked from the fourth frame
+        model.table(hsv)
+        model.learn(hsv, in_range, np.array([HELD], float)[: int(frame >= 3)], np.array([12.0])[: int(frame >= 3)], foreground)
+    prob = model.probability(hsv)
+    assert (prob[EMPTY[1] - 12 : EMPTY[1] + 12, EMPTY[0] - 12 : EMPTY[0] + 12] > 127).mean() < 0.1  # taught: all of it
+    assert model.ball[SKIN_HSV[0][0] // 4, SKIN_HSV[0][1] // 8] < 0.01  # taught: 0.39 of the ball's histogram
+    assert prob[HELD[1] - 8, HELD[0]] > 200  # the ball's own colour keeps its p

@@ -79,15 +79,22 @@ def test_the_colour_histograms_are_what_calchist_counts_on_the_subsampled_grid()
     discs = np.zeros(small.shape[:2], np.uint8)
     cv2.circle(discs, (20, 15), 9, 255, -1)
     none = np.zeros((0, 0), np.uint8)
-    ball, rest, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs, none, none)
+    ring = np.zeros(small.shape[:2], np.uint8)
+    cv2.circle(ring, (20, 15), 14, 255, -1)
+    cv2.circle(ring, (20, 15), 10, 0, -1)
+    ball, rest, moved, around = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, discs, none, none, ring)
     ranges = [0, 180, 0, 256]
     on_ball = cv2.bitwise_and(discs, np.ascontiguousarray(in_range[::LEARN_STEP, ::LEARN_STEP]))
     assert ball.sum() > 50
     assert np.array_equal(ball, cv2.calcHist([small], [0, 1], on_ball, [H_BINS, S_BINS], ranges))
+    in_ring = cv2.bitwise_and(ring, np.ascontiguousarray(in_range[::LEARN_STEP, ::LEARN_STEP]))
+    assert around.sum() > 50
+    assert np.array_equal(around, cv2.calcHist([small], [0, 1], in_ring, [H_BINS, S_BINS], ranges))  # HOLDER's ring
     assert np.array_equal(rest, cv2.calcHist([small], [0, 1], cv2.bitwise_not(discs), [H_BINS, S_BINS], ranges))
     assert not moved.any()  # no foreground: no moving pixel
-    _, everything, _ = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, none, none, none)
+    _, everything, _, nothing = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, none, none, none, none)
     assert np.array_equal(everything, cv2.calcHist([small], [0, 1], None, [H_BINS, S_BINS], ranges))
+    assert not nothing.any()  # no ring: nothing around
 
 
 def test_the_moving_colours_histogram_is_what_calchist_counts_on_the_foreground_read_at_the_grid():
@@ -111,7 +118,9 @@ def test_the_moving_colours_histogram_is_what_calchist_counts_on_the_foreground_
         if off.shape[0]:
             sampled = sampled & (off == 0)
         expected = cv2.calcHist([small], [0, 1], sampled.astype(np.uint8), [H_BINS, S_BINS], [0, 180, 0, 256])
-        _, _, moved = evidence_kernels.hs_histograms(hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8), foreground, off)
+        _, _, moved, _ = evidence_kernels.hs_histograms(
+            hsv, LEARN_STEP, in_range, np.zeros((0, 0), np.uint8), foreground, off, np.zeros((0, 0), np.uint8)
+        )
         assert moved.sum() > 100
         assert np.array_equal(moved, expected)
 
