@@ -224,11 +224,13 @@ class ColourModel:
         centres_uv: np.ndarray | None = None,
         radii_px: np.ndarray | None = None,
         foreground: np.ndarray | None = None,
+        things: np.ndarray | None = None,
     ) -> None:
         """Learn this frame: the ball's colours from the pixels in range under the discs of the tracked balls
         (pixel centres and apparent radii; their cores) but those the room holds far more of (``spread``), the
         background's from every other pixel; with ``spread`` and the ``foreground`` (0/1, any grid the image's size
-        divides), the colours of what moved off the balls (``moving``)."""
+        divides), the colours of what moved off the balls (``moving``). ``things``: ``moving_things()`` as
+        ``table_and_things`` found them this frame (found again without)."""
         h, w = hsv.shape[:2]
         discs = off_ball = ring = _NO_DISCS
         if centres_uv is not None and len(centres_uv):
@@ -236,13 +238,11 @@ class ColourModel:
             centres, radii = np.asarray(centres_uv) / LEARN_STEP, np.asarray(radii_px) / LEARN_STEP
             discs = disc_mask(grid, centres, radii)
         learn_moving = bool(self.spread) and foreground is not None  # MOVED
-        things = None
         if learn_moving and discs.shape[0]:
             off_ball = disc_mask(grid, centres, radii, OFF_BALL)
-            things = self.moving_things()
+            things = self.moving_things() if things is None else things
             if things is not None and things.any():  # HOLDER: the ring around the balls, off their rims
-                ring = disc_mask(grid, centres, radii, HOLDER_RING[1])
-                ring[disc_mask(grid, centres, radii, HOLDER_RING[0]) > 0] = 0
+                ring = disc_mask(grid, centres, radii, HOLDER_RING[1], HOLDER_RING[0])
         on_ball, rest, moved, around = hs_histograms(
             hsv, LEARN_STEP, in_range, discs, foreground if learn_moving else _NO_DISCS, off_ball, ring
         )
@@ -312,14 +312,20 @@ def load_colour_model(path: str | Path) -> np.ndarray:
     return ball
 
 
-def disc_mask(shape: tuple[int, int], centres_uv: np.ndarray, radii_px: np.ndarray, scale: float = CORE) -> np.ndarray:
-    """uint8 H x W, 255 inside the discs (radius x ``scale``) drawn at these pixel centres."""
+def disc_mask(shape: tuple[int, int], centres_uv: np.ndarray, radii_px: np.ndarray, scale: float = CORE, hole: float = 0.0) -> np.ndarray:
+    """uint8 H x W, 255 inside the discs (radius x ``scale``) drawn at these pixel centres; with a ``hole``, 0 inside
+    every disc of radius x ``hole`` (rings: HOLDER's)."""
     h, w = shape
     out = np.zeros((h, w), np.uint8)
     # as Python floats (the callers' float64 values): numpy scalars cost a microsecond a test
-    for (u, v), r in zip(np.asarray(centres_uv).tolist(), np.asarray(radii_px).tolist()):
-        if math.isfinite(u) and math.isfinite(v) and -w < u < 2 * w and -h < v < 2 * h and 0 < r < w:
-            cv2.circle(out, (int(round(u)), int(round(v))), max(1, int(r * scale)), 255, -1)
+    balls = [
+        ((int(round(u)), int(round(v))), r)
+        for (u, v), r in zip(np.asarray(centres_uv).tolist(), np.asarray(radii_px).tolist())
+        if math.isfinite(u) and math.isfinite(v) and -w < u < 2 * w and -h < v < 2 * h and 0 < r < w
+    ]
+    for size, value in ((scale, 255), (hole, 0)) if hole else ((scale, 255),):
+        for centre, r in balls:
+            cv2.circle(out, centre, max(1, int(r * size)), value, -1)
     return out
 
 

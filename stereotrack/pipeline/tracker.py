@@ -349,7 +349,7 @@ class Tracker:
         cam = self.evidence_cameras[j]
         mine = confirmed.of(target.name)
         uv, front, depth = cam.view(mine.centres)
-        model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]), foreground)
+        model.learn(cm.hsv, cm.masks[target.name], uv[front], cam.apparent_radius(mine.radii[front], depth[front]), foreground, things)
         return table, things
 
 
