@@ -201,7 +201,7 @@ def explain(
     out = [merged[i] for i in kept]
     if settings.refine:
         hidden = _partly_hidden(np.array([merged[i].position for i in kept]), cameras, settings.radius, occluders)
-        swept = _swept(views, predicted, settings.radius, settings.short_streaks)
+        swept = _paired(*_swept(views, predicted, settings.radius, settings.short_streaks), blob_ids[kept])
         out = _refine_all(merged, kept, blob_ids, log_ratio, hidden, views, settings, predicted, swept)
     return _pieces_joined(out, into, blob_ids[kept], score[kept], cameras, blobs, settings.radius)
 
@@ -335,15 +335,24 @@ def _held_twice(predicted: np.ndarray | None, cameras, blobs, radius: float) -> 
     return out
 
 
-def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius: float, short_blurs: bool = True) -> list[np.ndarray]:
+# A ball is smeared in every view or in none: a blob shaped like a streak that is only in part moving, PAIRED_MOVING of it
+# or more, is a streak where the same ball's blob in another view is one (``_paired``). A fast ball's faint streak, two
+# pixels wide, read 0.2-0.6 moving on the background's half-size grid in one camera while the other camera's read 0.9;
+# its object kept its particles' depth, 0.3 m far for 10 frames (fast_ball tune seed 436: 0.571 -> 0.762).
+PAIRED_MOVING = 0.2
+
+
+def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius: float, short_blurs: bool = True) -> tuple[list, list]:
     """Per camera, per blob: a fast ball's streak. Shaped like one (``Blobs.widths``), mostly moving (a static prop as
     long and as filled is not: its blob in the refine step would be clean, and its object a steady false track:
-    clutter 0.976 -> 0.907), and not where two tracked balls overlap (two balls side by side look like a streak)."""
+    clutter 0.976 -> 0.907), and not where two tracked balls overlap (two balls side by side look like a streak). And
+    per camera, per blob: shaped like one and in part moving (PAIRED_MOVING), a streak if its ball's other view is one."""
     cameras, blobs = [v.camera for v in views], [v.blobs for v in views]
     shared = _held_twice(predicted, cameras, blobs, radius)
-    out = []
+    out, partly = [], []
     for j, (v, b) in enumerate(zip(views, blobs)):
         swept = np.zeros(len(b), bool)
+        some = swept.copy()
         if b.widths is not None and b.boxes is not None and b.axes is not None and v.moving_integral is not None and len(b):
             swept = b.widths != b.radii
             if short_blurs:
@@ -354,8 +363,25 @@ def _swept(views: Sequence[CameraEvidence], predicted: np.ndarray | None, radius
                 # streak whose rows fell off that grid read 0.64-0.77 moving (a drawn blur moving all over: 0.65), was no
                 # streak, and its object kept its particles' depth (fast_ball tune seed 29: 0.3-0.4 m far for 27 frames).
                 moving = box_counts(v.moving_integral, *b.pixel_boxes(ks).T)
-                swept[ks] = (moving >= 0.8 * b.areas[ks]) & np.array([k not in shared[j] for k in ks.tolist()], bool)
+                alone = np.array([k not in shared[j] for k in ks.tolist()], bool)
+                swept[ks] = (moving >= 0.8 * b.areas[ks]) & alone
+                some[ks] = (moving >= PAIRED_MOVING * b.areas[ks]) & alone
         out.append(swept)
+        partly.append(some)
+    return out, partly
+
+
+def _paired(swept: list[np.ndarray], partly: list[np.ndarray], blob_ids: np.ndarray) -> list[np.ndarray]:
+    """``swept`` (per camera, per blob) with the blobs that are ``partly`` streaks (_swept) where a kept object's blob
+    (``blob_ids``: per object, per camera, -1 none) is a streak in another camera."""
+    if not any(p.any() for p in partly):
+        return swept
+    out = [s.copy() for s in swept]
+    for row in blob_ids:
+        seen = [(j, b) for j, b in enumerate(row.tolist()) if b >= 0]
+        if any(swept[j][b] for j, b in seen):
+            for j, b in seen:
+                out[j][b] |= partly[j][b]
     return out
 
 

@@ -125,6 +125,29 @@ def test_a_far_streak_takes_its_triangulated_centroid_where_the_particles_stray_
     assert len(kept) == 1 and np.linalg.norm(kept[0].position - ball) < 0.1, kept[0].position
 
 
+def test_a_streak_that_moves_only_in_part_in_one_view_is_a_streak_where_its_other_view_is_one():
+    """A fast ball's faint streak that the background's coarse grid sees moving only in part in one camera (a third of
+    it) is still its ball's streak when the other camera's blob of that ball is a moving streak: a ball is smeared in
+    every view or in none. Its centroids triangulate where the particles put the ball 0.3 m far (fast_ball tune seed
+    436: 0.3 m far for 10 frames). Moving in part in both views, it is no streak: its object keeps the particles' word."""
+    from stereotrack.evidence.gather import CameraEvidence
+
+    ball = np.array([0.1, 6.0, 0.0])
+    rig, masks, views = _blurred(ball, np.array([0.15, 0.0, 0.02]))
+    xs = [np.flatnonzero(m.any(axis=0)) for m in masks]
+    part = [m.copy() for m in masks]
+    for m, x in zip(part, xs):
+        m[:, x[0] + len(x) // 3 :] = 0  # the streak's first third moves
+    off = ball + 0.3 * ball / np.linalg.norm(ball)
+    objects = [obj(off, ball / np.linalg.norm(ball), 0.3)]
+    one_in_part = (views[0], CameraEvidence.from_mask(rig.cameras[1], masks[1], foreground=part[1]))
+    kept, _ = explain(objects, one_in_part, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 1 and kept[0].swept and np.linalg.norm(kept[0].position - ball) < 0.1, kept[0].position
+    both_in_part = tuple(CameraEvidence.from_mask(c, m, foreground=f) for c, m, f in zip(rig.cameras, masks, part))
+    kept, _ = explain(objects, both_in_part, ExplainSettings(radius=RADIUS))
+    assert len(kept) == 1 and not kept[0].swept and np.linalg.norm(kept[0].position - off) < 0.05, kept[0].position
+
+
 def test_a_far_thin_streak_whose_edge_pixels_count_takes_its_triangulated_centroid():
     """A far ball's streak (2.4 pixels of radius at 8 m) marks every pixel its edges cross: a band 2 r + 1 pixels wide,
     whose moments' semi-minor axis is 2 sqrt(r (r + 1) / 3) = 3.3 pixels (here 3.8), 1.5 times the ball's radius. It is
