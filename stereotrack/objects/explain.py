@@ -435,7 +435,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
     whole = _whole(blob_ids, blobs, log_ratio) | (not settings.partial_views)  # before streaks are measured by their width
     smeared = whole & (log_ratio > STREAK_LONGER)  # (NaN: no blob, no smear)
     whole |= _blurred(whole, smeared, blob_ids, evidence, swept)
-    whole &= ~_cut_short(blob_ids, blobs, swept, cameras, np.array([o.position for o in merged]))
+    whole &= ~_cut_short(blob_ids, blobs, swept, cameras, merged)
     log_ratio = _streaks_may_be_thin(log_ratio, blob_ids, blobs, swept)
     views = {i: _clean_views(i, n, kept, blob_ids, log_ratio, hidden, whole) for n, i in enumerate(kept)}
     # A ball longer than itself in some view is fast (a streak, blurred), not hidden: its disc would hold none of its

@@ -128,8 +128,8 @@ CUT_SHORT = 0.6
 PARALLEL_DEG = 15.0
 
 
-def _cut_short(blob_ids: np.ndarray, blobs, swept: list[np.ndarray], cameras, positions: np.ndarray) -> np.ndarray:
-    """Per object (at ``positions``) and camera: its blob there is a streak (``swept``) under CUT_SHORT as long
+def _cut_short(blob_ids: np.ndarray, blobs, swept: list[np.ndarray], cameras, objects) -> np.ndarray:
+    """Per object (``objects``, Object3D) and camera: its blob there is a streak (``swept``) under CUT_SHORT as long
     (Blobs.axes' semi-major) as its streak in another camera whose ray to it lies within PARALLEL_DEG of this one's."""
     out = np.zeros(blob_ids.shape, bool)
     if blob_ids.shape[1] < 2 or any(b.axes is None for b in blobs) or not len(blob_ids):
@@ -141,6 +141,7 @@ def _cut_short(blob_ids: np.ndarray, blobs, swept: list[np.ndarray], cameras, po
         length[on, j] = b.axes[blob_ids[on, j], 0]
     if (length > 0).sum(axis=1).max() < 2:  # (most frames: no ball a streak in two views)
         return out
+    positions = np.array([o.position for o in objects])
     rays = np.stack([positions - c.centre for c in cameras], axis=1)  # objects x cameras x 3
     rays /= np.maximum(np.linalg.norm(rays, axis=2, keepdims=True), 1e-12)
     parallel = np.einsum("ijk,ilk->ijl", rays, rays) >= np.cos(np.radians(PARALLEL_DEG))
