@@ -74,26 +74,11 @@ def evaluate(
 
     ``views``: K cameras that see some of each true ball (None: every ball is required).
     """
-    try:
-        import motmetrics as mm
-    except ImportError:  # pragma: no cover - depends on the install
-        raise StereotrackError("evaluation needs py-motmetrics: pip install 'stereotrack[eval]'") from None
-    if gate <= 0:
-        raise StereotrackError(f"--gate must be positive metres, got {gate}")
     if frames is None:
         frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
-    acc = mm.MOTAccumulator(auto_id=False)
-    optional = np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
-    t_by_frame = _group(np.column_stack([truth[:, :5], optional]), 0)
-    h_by_frame = _group(tracks, 0)
-    for f in frames:
-        t = t_by_frame.get(int(f), np.zeros((0, 6)))
-        h = h_by_frame.get(int(f), np.zeros((0, 6)))
-        d = np.linalg.norm(t[:, None, 2:5] - h[None, :, 3:6], axis=2) if len(t) and len(h) else np.zeros((len(t), len(h)))
-        d = np.where(d <= gate, d, np.nan)
-        if t[:, 5].any():
-            t, h, d = _without_optional(t, h, d)
-        acc.update(t[:, 1].astype(int).tolist(), h[:, 2].astype(int).tolist(), d, frameid=int(f))
+    acc = _accumulated(tracks, truth, gate, frames, views)
+    import motmetrics as mm  # (there: _accumulated said what to install when it is missing)
+
     mh = mm.metrics.create()
     s = mh.compute(
         acc,
@@ -136,6 +121,52 @@ def evaluate(
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),
         gate_m=gate,
     )
+
+
+def error_events(
+    tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: np.ndarray | None = None, views: np.ndarray | None = None
+) -> np.ndarray:
+    """What ``evaluate`` counts, event by event: E x 4 int (frame, kind, true ball's id, track's id), kind one of
+    MATCH, SWITCH, MISS, FALSE (a miss has no track: -1; a false positive no ball: -1). For telling where a run's
+    errors are (benchmarks/error_classes.py)."""
+    if frames is None:
+        frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
+    ev = _accumulated(tracks, truth, gate, frames, views).mot_events
+    kinds = {"MATCH": MATCH, "SWITCH": SWITCH, "MISS": MISS, "FP": FALSE}
+    ev = ev[ev["Type"].isin(list(kinds))]
+    out = np.full((len(ev), 4), -1, np.int64)
+    out[:, 0] = ev.index.get_level_values("FrameId").to_numpy()
+    out[:, 1] = ev["Type"].map(kinds).to_numpy()
+    for col, name in ((2, "OId"), (3, "HId")):
+        ids = ev[name].to_numpy(dtype=float)
+        out[:, col] = np.where(np.isfinite(ids), np.nan_to_num(ids), -1)
+    return out
+
+
+MATCH, SWITCH, MISS, FALSE = 0, 1, 2, 3  # error_events' kinds
+
+
+def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, views: np.ndarray | None):
+    """The py-motmetrics accumulator of ``tracks`` against ``truth`` over ``frames`` (``evaluate``'s arguments)."""
+    try:
+        import motmetrics as mm
+    except ImportError:  # pragma: no cover - depends on the install
+        raise StereotrackError("evaluation needs py-motmetrics: pip install 'stereotrack[eval]'") from None
+    if gate <= 0:
+        raise StereotrackError(f"--gate must be positive metres, got {gate}")
+    acc = mm.MOTAccumulator(auto_id=False)
+    optional = np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
+    t_by_frame = _group(np.column_stack([truth[:, :5], optional]), 0)
+    h_by_frame = _group(tracks, 0)
+    for f in frames:
+        t = t_by_frame.get(int(f), np.zeros((0, 6)))
+        h = h_by_frame.get(int(f), np.zeros((0, 6)))
+        d = np.linalg.norm(t[:, None, 2:5] - h[None, :, 3:6], axis=2) if len(t) and len(h) else np.zeros((len(t), len(h)))
+        d = np.where(d <= gate, d, np.nan)
+        if t[:, 5].any():
+            t, h, d = _without_optional(t, h, d)
+        acc.update(t[:, 1].astype(int).tolist(), h[:, 2].astype(int).tolist(), d, frameid=int(f))
+    return acc
 
 
 def _without_optional(t: np.ndarray, h: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -84,3 +84,36 @@ def test_with_nothing_matched_motp_is_undefined_and_with_no_track_precision_too(
             assert np.isnan(ev.precision) and "precision: n/a" in ev.table()
         else:
             assert ev.precision == precision
+
+
+def test_error_events_are_what_evaluate_counts_frame_by_frame():
+    from stereotrack.evaluate import FALSE, MATCH, MISS, SWITCH, error_events
+
+    truth = truth_rows(20)
+    rows = []
+    for f in range(20):
+        rows.append([f, 0, 1 if f < 10 else 5, 0.03, 0.0, 1.0])  # ball 0: switches from track 1 to 5 at frame 10
+        if f >= 5:
+            rows.append([f, 0, 2, 0.5, 0.0, 1.5])  # ball 1 missed in frames 0-4
+        if f == 7:
+            rows.append([f, 0, 9, 2.0, 2.0, 2.0])  # a false positive
+    tracks = np.array(rows, float)
+    events = error_events(tracks, truth, gate=0.1)
+    ev = evaluate(tracks, truth, gate=0.1)
+    kind = events[:, 1]
+    assert (kind == MISS).sum() == ev.misses == 5 and (kind == FALSE).sum() == ev.false_positives == 1
+    assert (kind == SWITCH).sum() == ev.id_switches == 1 and (kind == MATCH).sum() == ev.matches  # (motmetrics counts a switch apart)
+    assert sorted(events[kind == MISS, 0].tolist()) == [0, 1, 2, 3, 4] and set(events[kind == MISS, 2].tolist()) == {1}
+    assert events[kind == MISS, 3].tolist() == [-1] * 5  # a miss has no track ...
+    assert events[kind == FALSE].tolist() == [[7, FALSE, -1, 9]]  # ... a false positive no ball
+    assert events[kind == SWITCH].tolist() == [[10, SWITCH, 0, 5]]
+
+
+def test_error_events_leave_balls_fewer_than_two_cameras_see_out():
+    from stereotrack.evaluate import FALSE, MISS, error_events
+
+    truth = truth_rows(4)
+    views = np.where(truth[:, 1] == 1, 1, 2)  # ball 1: one camera only, optional
+    tracks = np.array([[f, 0, 1, 0.0, 0.0, 1.0] for f in range(4)] + [[2, 0, 7, 0.5, 0.0, 1.5]], float)  # one on ball 1 in frame 2
+    events = error_events(tracks, truth, views=views)
+    assert not ((events[:, 1] == MISS) | (events[:, 1] == FALSE)).any()  # neither the untracked optional ball nor the track on it
