@@ -1,18 +1,11 @@
 """benchmarks/error_classes.py: which misses and false positives a scene's tracks hold, by kind."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
+from benchmark_scripts import load
 
 from stereotrack.evaluate import error_events
 
-ROOT = Path(__file__).resolve().parent.parent
-_spec = importlib.util.spec_from_file_location("error_classes", ROOT / "benchmarks" / "error_classes.py")
-ec = importlib.util.module_from_spec(_spec)
-sys.modules["error_classes"] = ec  # dataclasses look their module up there
-_spec.loader.exec_module(ec)
+ec = load("error_classes")
 
 FPS = 30.0
 

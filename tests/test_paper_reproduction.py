@@ -4,18 +4,11 @@ alpha = 0 (pure CONDENSATION) collapses onto one of two static balls; any
 alpha >= 0.1 keeps a population on both (paper Table II, issue 3 target).
 """
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from benchmark_scripts import load
 
-ROOT = Path(__file__).resolve().parent.parent
-_spec = importlib.util.spec_from_file_location("paper_reproduction", ROOT / "benchmarks" / "paper_reproduction.py")
-pr = importlib.util.module_from_spec(_spec)
-sys.modules["paper_reproduction"] = pr  # dataclasses look their module up there
-_spec.loader.exec_module(pr)
+pr = load("paper_reproduction")
 
 N = 500
 

@@ -1,18 +1,13 @@
 """benchmarks/real_footage.py: the hand-checked labels of the real ball videos, and the measure that scores any 2D evidence on them."""
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from benchmark_scripts import ROOT, load
 
-ROOT = Path(__file__).resolve().parent.parent
-_spec = importlib.util.spec_from_file_location("real_footage", ROOT / "benchmarks" / "real_footage.py")
-rf = importlib.util.module_from_spec(_spec)
-sys.modules["real_footage"] = rf  # dataclasses look their module up there
-_spec.loader.exec_module(rf)
+rf = load("real_footage")
 
 SIZES = {"ball2.mp4": (640, 480), "ball4.mp4": (1280, 720)}
 
