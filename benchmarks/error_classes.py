@@ -5,7 +5,9 @@ scenes ``stereotrack stress`` rendered and tracked (its cache: truth.csv and tra
 each again event by event (``stereotrack.evaluate.error_events``: the same assignment, gate and optional balls as
 ``stereotrack eval``), then sorts them:
 
-- a miss before the ball's first match is **not yet found** (the tracker finds a ball late: at start, or when it
+- a miss of a ball that some camera shows under HIDDEN of (``SceneRenderer.shown``: behind a prop, deep in a hand) is
+  **hidden in a view**: truth's ``visible`` counts a camera that shows a pixel of it, though a sliver is no view of it;
+- else a miss before the ball's first match is **not yet found** (the tracker finds a ball late: at start, or when it
   first comes into view); a miss of a ball never matched in its scene is **never found**;
 - a miss after its ball's first match is a ball **lost**: **slow** where the ball moves under SLOW m/s (at rest,
   held or carried in a hand, at a swing's turning point), **fast** otherwise;
@@ -33,11 +35,13 @@ import numpy as np
 from stereotrack.evaluate import FALSE, MATCH, MISS, SWITCH, error_events
 from stereotrack.files import replace_section
 from stereotrack.recording import open_recording, read_truth_and_views
-from stereotrack.simulation.stress import CATEGORIES, seeds
+from stereotrack.simulation.render import SceneRenderer
+from stereotrack.simulation.stress import CATEGORIES, seeds, stress_scene
 from stereotrack.sinks.tracks_csv import read_tracks
 
 SLOW = 1.0  # m/s: a ball slower than this is at rest, held, carried or turning, not flying
 LASTING = 10  # frames: a track false in this many frames of its scene is a ghost that stays
+HIDDEN = 0.25  # a camera that shows under this share of a ball's pixels hardly sees it
 
 
 @dataclass
@@ -45,6 +49,7 @@ class Classes:
     """Ball-frames of one or more scenes, by what became of them."""
 
     ball_frames: int = 0  # ball-frames that count (the ball seen by two cameras or more)
+    hidden: int = 0
     not_yet_found: int = 0
     never_found: int = 0
     lost_slow: int = 0
@@ -73,8 +78,9 @@ def speeds(truth: np.ndarray, times: np.ndarray) -> dict[tuple[int, int], float]
     return out
 
 
-def classify(events: np.ndarray, speed: dict[tuple[int, int], float]) -> Classes:
-    """One scene's ``error_events`` sorted into Classes (``speed``: per (frame, ball id), from ``speeds``)."""
+def classify(events: np.ndarray, speed: dict[tuple[int, int], float], least_shown=lambda frame, ball: 1.0) -> Classes:
+    """One scene's ``error_events`` sorted into Classes (``speed``: per (frame, ball id), from ``speeds``;
+    ``least_shown(frame, ball)``: the least share of the ball any camera shows then, from ``SceneRenderer.shown``)."""
     c = Classes()
     kind, frame, ball, track = events[:, 1], events[:, 0], events[:, 2], events[:, 3]
     found = (kind == MATCH) | (kind == SWITCH)
@@ -82,7 +88,9 @@ def classify(events: np.ndarray, speed: dict[tuple[int, int], float]) -> Classes
     c.id_switches = int((kind == SWITCH).sum())
     first = {int(b): int(frame[found & (ball == b)].min()) for b in np.unique(ball[found])}
     for f, b in zip(frame[kind == MISS].tolist(), ball[kind == MISS].tolist()):
-        if b not in first:
+        if least_shown(f, b) < HIDDEN:
+            c.hidden += 1
+        elif b not in first:
             c.never_found += 1
         elif f < first[b]:
             c.not_yet_found += 1
@@ -96,28 +104,32 @@ def classify(events: np.ndarray, speed: dict[tuple[int, int], float]) -> Classes
     return c
 
 
-def scene_classes(folder: Path, method: str) -> Classes:
-    """Classes of one scene the stress command tracked and scored (its folder in the cache)."""
+def scene_classes(folder: Path, method: str, category: str, seed: int) -> Classes:
+    """Classes of one scene the stress command tracked and scored (its folder in the cache), rendered again where a
+    ball was missed to tell how much of it each camera showed."""
     recording = open_recording(folder)
     truth, views = read_truth_and_views(recording.truth_path)
     tracks = read_tracks(folder / f"tracks_{method}.csv")
     events = error_events(tracks, truth, frames=np.arange(recording.n_frames), views=views)
-    times = recording.timestamps[:, 0]
-    return classify(events, speeds(truth, times))
+    shown = {}
+    if (events[:, 1] == MISS).any():
+        renderer = SceneRenderer(stress_scene(category, seed))
+        shown = {int(f): renderer.shown(int(f)) for f in np.unique(events[events[:, 1] == MISS, 0])}
+    return classify(events, speeds(truth, recording.timestamps[:, 0]), lambda f, b: float(np.nanmin(shown[f][:, b], initial=1.0)))
 
 
 def table(rows: dict[str, Classes], n_seeds: int, seed_set: str, command: str) -> str:
     head = [
         f"Produced by `{command}` on {date.today().isoformat()}, from the tracks `stereotrack stress` left in its cache.",
         f"Per category, the ball-frames of {n_seeds} `{seed_set}` seeds that MOTA counts as misses, false positives and",
-        "id switches, by kind (SLOW = 1 m/s, LASTING = 10 frames; the script's docstring says what each is). MOTA =",
+        "id switches, by kind (HIDDEN = 0.25, SLOW = 1 m/s, LASTING = 10 frames; the script's docstring says what each is). MOTA =",
         "1 - (misses + false positives + id switches) / ball-frames, here over all the seeds at once.",
         "",
-        "| category | ball-frames | not yet found | never found | lost, slow | lost, fast | false, lasting | false, brief | id switches |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| category | ball-frames | hidden in a view | not yet found | never found | lost, slow | lost, fast | false, lasting | false, brief | id switches |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     lines = [
-        f"| {name} | {c.ball_frames} | {c.not_yet_found} | {c.never_found} | {c.lost_slow} | {c.lost_fast} | {c.false_lasting} | "
+        f"| {name} | {c.ball_frames} | {c.hidden} | {c.not_yet_found} | {c.never_found} | {c.lost_slow} | {c.lost_fast} | {c.false_lasting} | "
         f"{c.false_brief} | {c.id_switches} |"
         for name, c in rows.items()
     ]
@@ -144,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
                     file=sys.stderr,
                 )
                 return 2
-            total = total + scene_classes(folder, args.method)
+            total = total + scene_classes(folder, args.method, category, seed)
         rows[category] = total
     command = " ".join([".venv/bin/python benchmarks/error_classes.py", *(argv if argv is not None else sys.argv[1:])])
     text = table(rows, args.seeds, args.seed_set, command)
