@@ -5,7 +5,7 @@ scenes ``stereotrack stress`` rendered and tracked (its cache: truth.csv and tra
 each again event by event (``stereotrack.evaluate.error_events``: the same assignment, gate and optional balls as
 ``stereotrack eval``), then sorts them:
 
-- a miss of a ball that some camera shows under HIDDEN of (``SceneRenderer.shown``: behind a prop, deep in a hand) is
+- a miss of a ball that some camera shows under HIDDEN of (``simulation.visibility.shown``: behind a prop, deep in a hand) is
   **hidden in a view**: truth's ``visible`` counts a camera that shows a pixel of it, though a sliver is no view of it;
 - else a miss before the ball's first match is **not yet found** (the tracker finds a ball late: at start, or when it
   first comes into view); a miss of a ball never matched in its scene is **never found**;
@@ -35,6 +35,7 @@ import numpy as np
 from stereotrack.evaluate import FALSE, MATCH, MISS, SWITCH, error_events
 from stereotrack.files import replace_section
 from stereotrack.recording import open_recording, read_truth_and_views
+from stereotrack.simulation import visibility
 from stereotrack.simulation.render import SceneRenderer
 from stereotrack.simulation.stress import CATEGORIES, seeds, stress_scene
 from stereotrack.sinks.tracks_csv import read_tracks
@@ -80,7 +81,7 @@ def speeds(truth: np.ndarray, times: np.ndarray) -> dict[tuple[int, int], float]
 
 def classify(events: np.ndarray, speed: dict[tuple[int, int], float], least_shown=lambda frame, ball: 1.0) -> Classes:
     """One scene's ``error_events`` sorted into Classes (``speed``: per (frame, ball id), from ``speeds``;
-    ``least_shown(frame, ball)``: the least share of the ball any camera shows then, from ``SceneRenderer.shown``)."""
+    ``least_shown(frame, ball)``: the least share of the ball any camera shows then, from ``simulation.visibility.shown``)."""
     c = Classes()
     kind, frame, ball, track = events[:, 1], events[:, 0], events[:, 2], events[:, 3]
     found = (kind == MATCH) | (kind == SWITCH)
@@ -114,7 +115,7 @@ def scene_classes(folder: Path, method: str, category: str, seed: int) -> Classe
     shown = {}
     if (events[:, 1] == MISS).any():
         renderer = SceneRenderer(stress_scene(category, seed))
-        shown = {int(f): renderer.shown(int(f)) for f in np.unique(events[events[:, 1] == MISS, 0])}
+        shown = {int(f): visibility.shown(renderer, int(f)) for f in np.unique(events[events[:, 1] == MISS, 0])}
     return classify(events, speeds(truth, recording.timestamps[:, 0]), lambda f, b: float(np.nanmin(shown[f][:, b], initial=1.0)))
 
 

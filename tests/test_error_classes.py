@@ -32,7 +32,7 @@ def test_misses_and_false_positives_are_sorted_by_what_became_of_their_ball():
     assert (c.not_yet_found, c.never_found, c.lost_fast, c.lost_slow) == (5 + 3, n, 2, 5)
     assert (c.false_lasting, c.false_brief, c.id_switches) == (12, 1, 0)
     assert (c + c).never_found == 2 * n
-    # ball 2 a sliver in some camera in its first 10 frames (SceneRenderer.shown): those are hidden, not missed balls
+    # ball 2 a sliver in some camera in its first 10 frames (simulation.visibility.shown): those are hidden, not missed balls
     h = ec.classify(events, ec.speeds(truth, times), lambda f, b: 0.1 if b == 2 and f < 10 else 1.0)
     assert (h.hidden, h.never_found, h.not_yet_found, h.lost_fast, h.lost_slow) == (10, n - 10, 8, 2, 5)
 

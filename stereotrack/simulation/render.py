@@ -220,26 +220,6 @@ class SceneRenderer:
             out.append(ids)
         return tuple(out)
 
-    def shown(self, frame: int) -> np.ndarray:
-        """Per camera and ball (C x B): the share of the ball's pixels that show at the frame's time (``labels``)
-        against its pixels drawn alone, nothing in front of it; NaN where it draws none (out of view, not in the scene).
-        Truth's ``visible`` counts a camera that shows any pixel of a ball; this says how much."""
-        things = self._things(self.time(frame))
-        n = len(self.spec.balls)
-        out = np.full((len(self._cams), n), np.nan)
-        for j, (cc, ids) in enumerate(zip(self._cams, self.labels(frame))):
-            showing = np.bincount(ids[ids >= 0].ravel(), minlength=n)[:n]
-            for thing, box in zip(things, self._boxes(cc, things)):
-                if thing[0] < 0 or box is None:
-                    continue
-                h, w = box[3] - box[1], box[2] - box[0]  # alone: empty buffers the size of its box
-                alone = np.full((h, w), -1, np.int16)
-                self._draw_round(cc, np.zeros((h, w, 3), cc.background.dtype), np.full((h, w), np.inf, np.float32), alone, box, box, thing)
-                drawn = int((alone == thing[0]).sum())
-                if drawn:
-                    out[j, thing[0]] = showing[thing[0]] / drawn
-        return out
-
     # ---- moving things at one instant: (id, object, centre, bounding radius)
     def _things(self, t: float) -> list[tuple]:
         out = []

@@ -11,6 +11,7 @@ from stereotrack.simulation.presets import PRESETS, load_scene_yaml, make_preset
 from stereotrack.simulation.render import SceneRenderer
 from stereotrack.simulation.spec import BallSpec, Occluder, RigSpec, SceneSpec
 from stereotrack.simulation.trajectories import Static
+from stereotrack.simulation.visibility import shown
 from stereotrack.simulation.write import ensure_demo_recording
 
 
@@ -126,19 +127,19 @@ def test_occluder_hides_the_ball_in_one_view():
     assert truth == [(0, 0.0, 1.5, 0.0, 1)]
     labels = renderer.labels(0)
     assert (labels[0] == 0).sum() == 0 and (labels[0] == -2).sum() > 1000 and (labels[1] == 0).sum() > 500
-    assert renderer.shown(0).tolist() == [[0.0], [1.0]]  # hidden from cam0, all of it in cam1
+    cam0, cam1 = shown(renderer, 0)[:, 0]
+    assert cam0 == 0.0 and 0.95 < cam1 < 1.05  # hidden from cam0, all of it in cam1 (its disc's pixels, to its edge's)
 
 
 def test_shown_is_the_share_of_a_ball_that_an_occluder_leaves():
     centre = (0.0, 1.5, 0.0)
     half = Occluder(centre=(-0.075 - 0.04, 0.75, 0.0), size=(0.08, 0.01, 0.2))  # halfway to cam0, its edge on the ball's centre
     renderer = SceneRenderer(one_ball_scene(centre, occluders=[half]))
-    cam0, cam1 = renderer.shown(0)[:, 0]
-    assert 0.3 < cam0 < 0.7 and cam1 == 1.0
-    labels = renderer.labels(0)
+    cam0, cam1 = shown(renderer, 0)[:, 0]
     free = (SceneRenderer(one_ball_scene(centre)).labels(0)[0] == 0).sum()
-    assert cam0 == (labels[0] == 0).sum() / free
-    assert np.isnan(SceneRenderer(one_ball_scene((3.0, 1.5, 0.0))).shown(0)).all()  # out of both views
+    assert 0.3 < cam0 < 0.7 and 0.95 < cam1 < 1.05
+    assert cam0 == pytest.approx((renderer.labels(0)[0] == 0).sum() / free, rel=0.05)  # the share of the ball's own pixels
+    assert np.isnan(shown(SceneRenderer(one_ball_scene((3.0, 1.5, 0.0))), 0)).all()  # out of both views
 
 
 def test_crossing_balls_hide_each_other_in_turn():
