@@ -123,6 +123,9 @@ def evaluate(
     )
 
 
+MATCH, SWITCH, MISS, FALSE = 0, 1, 2, 3  # error_events' kinds
+
+
 def error_events(
     tracks: np.ndarray, truth: np.ndarray, gate: float = 0.1, frames: np.ndarray | None = None, views: np.ndarray | None = None
 ) -> np.ndarray:
@@ -141,9 +144,6 @@ def error_events(
         ids = ev[name].to_numpy(dtype=float)
         out[:, col] = np.where(np.isfinite(ids), np.nan_to_num(ids), -1)
     return out
-
-
-MATCH, SWITCH, MISS, FALSE = 0, 1, 2, 3  # error_events' kinds
 
 
 def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, views: np.ndarray | None):
