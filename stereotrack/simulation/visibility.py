@@ -1,4 +1,4 @@
-"""How much of each ball a rendered camera shows: truth's ``visible`` counts a camera that shows any pixel of it.
+"""How much of each ball a rendered camera shows (truth's ``visible`` counts a camera that shows one pixel of it).
 
 A ball behind a prop but for a sliver, or deep in a hand, is "seen" by that count. ``shown`` says how much: the
 ball's pixels in the frame's labels (``SceneRenderer.labels``) against the disc a ball of its radius makes at its
