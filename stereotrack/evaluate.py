@@ -74,9 +74,7 @@ def evaluate(
 
     ``views``: K cameras that see some of each true ball (None: every ball is required).
     """
-    if frames is None:
-        frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
-    acc = _accumulated(tracks, truth, gate, frames, views)
+    acc, frames = _accumulated(tracks, truth, gate, frames, views)
     import motmetrics as mm  # (there: _accumulated said what to install when it is missing)
 
     mh = mm.metrics.create()
@@ -132,9 +130,7 @@ def error_events(
     """What ``evaluate`` counts, event by event: E x 4 int (frame, kind, true ball's id, track's id), kind one of
     MATCH, SWITCH, MISS, FALSE (a miss has no track: -1; a false positive no ball: -1). For telling where a run's
     errors are (benchmarks/error_classes.py)."""
-    if frames is None:
-        frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
-    ev = _accumulated(tracks, truth, gate, frames, views).mot_events
+    ev = _accumulated(tracks, truth, gate, frames, views)[0].mot_events
     kinds = {"MATCH": MATCH, "SWITCH": SWITCH, "MISS": MISS, "FP": FALSE}
     ev = ev[ev["Type"].isin(list(kinds))]
     out = np.full((len(ev), 4), -1, np.int64)
@@ -147,13 +143,16 @@ def error_events(
 
 
 def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, views: np.ndarray | None):
-    """The py-motmetrics accumulator of ``tracks`` against ``truth`` over ``frames`` (``evaluate``'s arguments)."""
+    """The py-motmetrics accumulator of ``tracks`` against ``truth`` over ``frames`` (``evaluate``'s arguments), and
+    the frames (None: every frame either names)."""
     try:
         import motmetrics as mm
     except ImportError:  # pragma: no cover - depends on the install
         raise StereotrackError("evaluation needs py-motmetrics: pip install 'stereotrack[eval]'") from None
     if gate <= 0:
         raise StereotrackError(f"--gate must be positive metres, got {gate}")
+    if frames is None:
+        frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
     acc = mm.MOTAccumulator(auto_id=False)
     optional = np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
     t_by_frame = _group(np.column_stack([truth[:, :5], optional]), 0)
@@ -166,7 +165,7 @@ def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, vie
         if t[:, 5].any():
             t, h, d = _without_optional(t, h, d)
         acc.update(t[:, 1].astype(int).tolist(), h[:, 2].astype(int).tolist(), d, frameid=int(f))
-    return acc
+    return acc, frames
 
 
 def _without_optional(t: np.ndarray, h: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,16 +18,14 @@ def shown(renderer: SceneRenderer, frame: int) -> np.ndarray:
     ball is not in the scene or its disc lies wholly out of the image or behind the camera."""
     spec = renderer.spec
     centres = renderer.ball_positions(renderer.time(frame))
+    present = np.flatnonzero(~np.isnan(centres[:, 0]))
+    radii = np.array([b.radius for b in spec.balls], float)
     out = np.full((len(renderer.rig.cameras), len(spec.balls)), np.nan)
     for j, (cam, labels) in enumerate(zip(renderer.rig.cameras, renderer.labels(frame))):
         counts = np.bincount(labels[labels >= 0].ravel(), minlength=len(spec.balls))[: len(spec.balls)]
-        for k, (ball, c) in enumerate(zip(spec.balls, centres)):
-            if np.isnan(c[0]):
-                continue
-            uv, front, depth = cam.view(c[None])
-            if not front[0]:
-                continue
-            disc = _disc_pixels(uv[0], float(cam.apparent_radius(ball.radius, depth[0])), cam.width, cam.height)
+        uv, front, depth = cam.view(centres[present])
+        for k, centre, ahead, r in zip(present, uv, front, cam.apparent_radius(radii[present], depth)):
+            disc = _disc_pixels(centre, float(r), cam.width, cam.height) if ahead else 0
             if disc:
                 out[j, k] = counts[k] / disc
     return out
