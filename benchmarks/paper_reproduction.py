@@ -120,7 +120,7 @@ def render(preset: str, n_frames: int, progress: bool = True, **overrides) -> Re
     for i in range(n_frames):
         images, rows = renderer.render(i)
         frames.append(FramePair(i, tuple(images), tuple(renderer.time(i) for _ in images)))
-        for oid, x, y, z, vis in rows:
+        for oid, x, y, z, vis, _ in rows:
             truth[i, oid] = (x, y, z)
             visible[i, oid] = vis
         bar.update()

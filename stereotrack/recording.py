@@ -582,11 +582,14 @@ def read_truth(path: str | Path) -> np.ndarray:
 
 
 def read_truth_and_views(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
-    """truth.csv -> its rows (``read_truth``) and its optional ``visible`` column (how many cameras see some of each row's
-    ball), or None without one, from one read of the file."""
-    columns, whole, nonnegative = ["frame", "object_id", "x", "y", "z"], ("frame", "object_id", "visible"), ("frame", "visible")
-    data = read_columns(path, columns, "ground-truth file", whole=whole, nonnegative=nonnegative, optional=("visible",))
-    return data[:, :5], (data[:, 5] if data.shape[1] > 5 else None)
+    """truth.csv -> its rows (``read_truth``) and, per row, how many cameras see its ball, or None when the file does
+    not say, from one read of the file. The count is the optional ``clear`` column (the cameras that show a quarter of
+    the ball or more) where the file has one, else the optional ``visible`` (the cameras that show some of it)."""
+    columns, optional = ["frame", "object_id", "x", "y", "z"], ("visible", "clear")
+    data = read_columns(
+        path, columns, "ground-truth file", whole=("frame", "object_id") + optional, nonnegative=("frame",) + optional, optional=optional
+    )
+    return data[:, :5], (data[:, -1] if data.shape[1] > 5 else None)
 
 
 def __getattr__(name: str):

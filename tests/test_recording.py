@@ -87,6 +87,12 @@ def test_truth_with_extra_column(tmp_path):
     (folder / "truth.csv").write_text("frame,object_id,x,y,z,visible\n0,0,0.1,1.2,-0.05,-1\n")
     with pytest.raises(StereotrackError, match="line 2: 'visible' must be a whole number >= 0"):
         read_truth_and_views(folder / "truth.csv")
+    # `clear` (the cameras that show a quarter of the ball or more), after `visible`, is the count read
+    (folder / "truth.csv").write_text("frame,object_id,x,y,z,visible,clear\n0,0,0.1,1.2,-0.05,2,1\n0,1,0.1,1.2,-0.05,2,2\n")
+    assert read_truth_and_views(folder / "truth.csv")[1].tolist() == [1, 2]
+    (folder / "truth.csv").write_text("frame,object_id,x,y,z,visible,clear\n0,0,0.1,1.2,-0.05,2,0.5\n")
+    with pytest.raises(StereotrackError, match="line 2: 'clear' must be a whole number >= 0"):
+        read_truth_and_views(folder / "truth.csv")
 
 
 WRITER = """

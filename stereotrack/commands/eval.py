@@ -3,7 +3,8 @@
 MOTA, MOTP (mm), misses, false positives and id switches, with a distance
 gate (a track further than the gate from a true ball does not match it),
 plus the mean and 95th-percentile 3D error of the matches. A ball that
-fewer than two cameras see (truth.csv's optional `visible` column) may be
+fewer than two cameras see (truth.csv's optional `clear` column: the cameras
+that show a quarter of it or more; else its `visible` column) may be
 tracked but need not be: neither a miss nor, when a track stands on it, a
 false positive (--count-hidden counts it as any other ball).
 
@@ -28,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--count-hidden",
         action="store_true",
-        help="require balls that fewer than two cameras see (truth.csv's 'visible' column) like any other; by default they are optional",
+        help="require balls that fewer than two cameras see (truth.csv's 'clear' column, else 'visible') like any other; by default they are optional",
     )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
 

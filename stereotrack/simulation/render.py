@@ -24,6 +24,38 @@ from ..frames import FramePair
 from .spec import CameraResponse, Occluder, SceneSpec
 from .stage import pixel_rays, render_stage
 
+# A camera shows a ball clearly (truth's ``clear``) when this share of its disc or more is in view: a sliver over a
+# prop's edge, or a ball deep in a hand, is seen (``visible``) but gives no centre or size to triangulate (static_props
+# tune seeds 57 and 65: a ball 1-3 per cent shown in one camera, required, for the whole scene)
+CLEAR_SHARE = 0.25
+
+
+def disc_shares(cameras, centres: np.ndarray, radii: np.ndarray, shown_px) -> np.ndarray:
+    """Per camera and ball (C x B): the ball's pixels in the camera (``shown_px``, per camera a count per ball) against
+    the disc a ball of its radius makes at its depth, f R / z pixels in radius, inside the image (the stretch of a ball
+    far off the axis, up to a fifth more area at the edge of a 70-degree view, aside); NaN where the ball is not in the
+    scene (``centres`` NaN) or its disc lies wholly out of the image or behind the camera."""
+    present = np.flatnonzero(~np.isnan(centres[:, 0]))
+    out = np.full((len(cameras), len(centres)), np.nan)
+    for j, (cam, counts) in enumerate(zip(cameras, shown_px)):
+        uv, front, depth = cam.view(centres[present])
+        for k, centre, ahead, r in zip(present, uv, front, cam.apparent_radius(radii[present], depth)):
+            disc = disc_pixels(centre, float(r), cam.width, cam.height) if ahead else 0
+            if disc:
+                out[j, k] = counts[k] / disc
+    return out
+
+
+def disc_pixels(centre: np.ndarray, radius: float, width: int, height: int) -> int:
+    """Pixels of a width x height image whose centres lie within ``radius`` of ``centre``."""
+    x0, x1 = max(int(np.floor(centre[0] - radius)), 0), min(int(np.ceil(centre[0] + radius)) + 1, width)
+    y0, y1 = max(int(np.floor(centre[1] - radius)), 0), min(int(np.ceil(centre[1] + radius)) + 1, height)
+    if x0 >= x1 or y0 >= y1:
+        return 0
+    ys, xs = np.ogrid[y0:y1, x0:x1]
+    return int(((xs - centre[0]) ** 2 + (ys - centre[1]) ** 2 <= radius * radius).sum())
+
+
 # --------------------------------------------------------------------------- rendering
 
 
@@ -79,10 +111,11 @@ class _CameraCache:
 class SceneRenderer:
     """Renders frames of a scene in memory: ``render(i) -> (images, truth rows)``.
 
-    Truth rows are (object_id, x, y, z, visible) for every ball present whose
-    centre is in front of and inside every camera's image; ``visible`` counts
-    the cameras in which some of the ball is not hidden. Any frame can be
-    rendered on its own and always comes out the same.
+    Truth rows are (object_id, x, y, z, visible, clear) for every ball present
+    whose centre is in front of and inside every camera's image; ``visible``
+    counts the cameras in which some of the ball is not hidden, ``clear`` those
+    that show CLEAR_SHARE of its disc or more. Any frame can be rendered on its
+    own and always comes out the same.
     """
 
     def __init__(self, spec: SceneSpec):
@@ -154,6 +187,7 @@ class SceneRenderer:
         # rest changed from the first frame to the next, and the background model saw it move (hue_wall tune seed 36).
         subs = [self._things(max(t + dt, 0.0)) for dt in offsets]
         images, visible = [], np.zeros(len(spec.balls), int)
+        shown_px = []  # per camera, each ball's pixels in the middle sub-frame
         for cc in self._cams:
             acc = cc.background_sum.copy()
             boxes = [self._boxes(cc, things) for things in subs]
@@ -167,7 +201,10 @@ class SceneRenderer:
                     if k == len(subs) // 2:
                         seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(spec.balls))[: len(spec.balls)]
                         visible += seen > 0
+                        shown_px.append(seen)
                 acc[y0:y1, x0:x1] = part
+            else:
+                shown_px.append(np.zeros(len(spec.balls), int))
             response = cc.response
             gain = spec.lighting.brightness(t) * response.brightness(t)
             if response.gamma != 1.0:
@@ -188,6 +225,7 @@ class SceneRenderer:
                 out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
             images.append(out)
         centres = self.ball_positions(t)
+        clear = self._clear(centres, shown_px)
         truth = []
         for k, c in enumerate(centres):
             if np.isnan(c[0]):
@@ -197,8 +235,13 @@ class SceneRenderer:
                 uv, front = cam.project(c[None])
                 inside &= bool(front[0]) and 0 <= uv[0, 0] <= cam.width - 1 and 0 <= uv[0, 1] <= cam.height - 1
             if inside:
-                truth.append((k, float(c[0]), float(c[1]), float(c[2]), int(visible[k])))
+                truth.append((k, float(c[0]), float(c[1]), float(c[2]), int(visible[k]), int(clear[k])))
         return tuple(images), truth
+
+    def _clear(self, centres: np.ndarray, shown_px: list[np.ndarray]) -> np.ndarray:
+        """Per ball: how many cameras show CLEAR_SHARE or more of its disc (its pixels, ``shown_px`` per camera)."""
+        shares = disc_shares(self.rig.cameras, centres, np.array([b.radius for b in self.spec.balls], float), shown_px)
+        return (shares >= CLEAR_SHARE).sum(axis=0)
 
     def labels(self, frame: int) -> tuple[np.ndarray, ...]:
         """Per camera, H x W int16: what each pixel shows at the frame's time.

@@ -31,7 +31,7 @@ def render_scene(spec: SceneSpec, out_folder: str | Path, progress: bool = True,
         targets=config_to_dict(spec.config()),
         extra_meta={"up": list(WORLD_UP)},
         overwrite=overwrite,
-        truth_fields=("visible",),
+        truth_fields=("visible", "clear"),
     )
     bar = Progress(spec.n_frames, label=f"rendering {spec.name}", enabled=progress)
     try:

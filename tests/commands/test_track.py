@@ -39,9 +39,9 @@ def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, t
     out = tmp_path / "tracks.csv"
     assert cli("track", recording, "--out", out, "--quiet").returncode == 0
     lines = (recording / "truth.csv").read_text().splitlines()
-    assert lines[0].endswith(",visible")
+    assert lines[0].endswith(",visible,clear")
     # Ball 0 hidden in every camera from frame 6: its truth rows say so, and its track is cut there.
-    hidden = [",".join([*r.split(",")[:5], "0"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
+    hidden = [",".join([*r.split(",")[:5], "0", "0"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
     truth = tmp_path / "truth.csv"
     truth.write_text("\n".join([lines[0], *hidden]) + "\n")
     tracks = read_tracks(out)
@@ -55,6 +55,16 @@ def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, t
     counted = json.loads(cli("eval", cut, truth, "--json", "--count-hidden").stdout)
     assert optional["misses"] == 0 and optional["mota"] > 0.99
     assert counted["misses"] == 6 and counted["mota"] < optional["mota"]
+    # Seen by both cameras but shown clearly by one only (a sliver in the other): optional as well, by truth's `clear`
+    sliver = tmp_path / "sliver.csv"
+    rows = [",".join([*r.split(",")[:5], "2", "1"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
+    sliver.write_text("\n".join([lines[0], *rows]) + "\n")
+    assert json.loads(cli("eval", cut, sliver, "--json").stdout) == optional
+    assert json.loads(cli("eval", cut, sliver, "--json", "--count-hidden").stdout) == counted
+    # A file written before `clear` (its `visible` alone) reads as before
+    older = tmp_path / "older.csv"
+    older.write_text("\n".join([lines[0][: lines[0].rindex(",")], *(r[: r.rindex(",")] for r in hidden)]) + "\n")
+    assert json.loads(cli("eval", cut, older, "--json").stdout) == optional
 
 
 def test_target_that_matches_nothing_warns_and_writes_an_empty_file(recording, tmp_path):

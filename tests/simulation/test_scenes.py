@@ -8,7 +8,7 @@ from stereotrack.cli import main
 from stereotrack.errors import StereotrackError
 from stereotrack.recording import open_recording, read_truth
 from stereotrack.simulation.presets import PRESETS, load_scene_yaml, make_preset
-from stereotrack.simulation.render import SceneRenderer
+from stereotrack.simulation.render import CLEAR_SHARE, SceneRenderer
 from stereotrack.simulation.spec import BallSpec, Occluder, RigSpec, SceneSpec
 from stereotrack.simulation.trajectories import Static
 from stereotrack.simulation.visibility import shown
@@ -73,8 +73,8 @@ def test_every_preset_renders_with_truth(name):
     images, truth = renderer.render(1)
     assert len(images) == 2 and all(img.shape == (240, 320, 3) and img.dtype == np.uint8 for img in images)
     assert truth, f"{name}: no ball in view at frame 1"
-    for oid, x, y, z, visible in truth:
-        assert 0 <= oid < len(spec.balls) and 0 <= visible <= 2
+    for oid, x, y, z, visible, clear in truth:
+        assert 0 <= oid < len(spec.balls) and 0 <= clear <= visible <= 2
         for cam in renderer.rig.cameras:  # truth rows are balls whose centre every camera sees
             uv, front = cam.project(np.array([[x, y, z]]))
             assert front[0] and 0 <= uv[0, 0] <= 319 and 0 <= uv[0, 1] <= 239
@@ -124,7 +124,7 @@ def test_occluder_hides_the_ball_in_one_view():
     free = [hsv_mask(img, target).sum() for img in SceneRenderer(one_ball_scene(centre)).render(0)[0]]
     assert seen[0] == 0 and free[0] > 500
     assert seen[1] == free[1]
-    assert truth == [(0, 0.0, 1.5, 0.0, 1)]
+    assert truth == [(0, 0.0, 1.5, 0.0, 1, 1)]
     labels = renderer.labels(0)
     assert (labels[0] == 0).sum() == 0 and (labels[0] == -2).sum() > 1000 and (labels[1] == 0).sum() > 500
     cam0, cam1 = shown(renderer, 0)[:, 0]
@@ -140,6 +140,17 @@ def test_shown_is_the_share_of_a_ball_that_an_occluder_leaves():
     assert 0.3 < cam0 < 0.7 and 0.95 < cam1 < 1.05
     assert cam0 == pytest.approx((renderer.labels(0)[0] == 0).sum() / free, rel=0.05)  # the share of the ball's own pixels
     assert np.isnan(shown(SceneRenderer(one_ball_scene((3.0, 1.5, 0.0))), 0)).all()  # out of both views
+
+
+@pytest.mark.parametrize("edge, clear", [(-0.075 - 0.04, 2), (-0.075 - 0.04 + 0.01, 1)])
+def test_truth_counts_a_camera_clear_of_a_ball_when_it_shows_a_quarter_of_it(edge, clear):
+    """Half the ball behind a panel: both cameras see it clearly. A sliver (the panel's edge near the ball's far rim in
+    cam0): seen by both, clear in one, as ``shown`` measures it."""
+    renderer = SceneRenderer(one_ball_scene((0.0, 1.5, 0.0), occluders=[Occluder(centre=(edge, 0.75, 0.0), size=(0.08, 0.01, 0.2))]))
+    ((_, *_, visible, got),) = renderer.render(0)[1]
+    share = shown(renderer, 0)[0, 0]
+    assert visible == 2 and got == clear
+    assert (share >= CLEAR_SHARE) == (clear == 2) and share > 0  # a sliver: some of it, under a quarter
 
 
 def test_crossing_balls_hide_each_other_in_turn():
@@ -248,7 +259,7 @@ def test_synth_command_writes_a_readable_recording(tmp_path, capsys):
     assert rec.meta["up"] == [0.0, 0.0, 1.0] and rec.targets_path.is_file()
     truth = read_truth(rec.truth_path)
     assert truth.shape == (12, 5)
-    assert rec.truth_path.read_text().splitlines()[0] == "frame,object_id,x,y,z,visible"
+    assert rec.truth_path.read_text().splitlines()[0] == "frame,object_id,x,y,z,visible,clear"
     renderer = SceneRenderer(make_preset("pendulum4", n_frames=3, width=320, height=240))
     frames = list(rec.frames())
     for pair in frames:
