@@ -57,7 +57,9 @@ BEAT_BASELINE = ("crossing", "clutter", "juggle5@30", "juggle5@60")
 
 
 def render(preset: str, fps: float, frames: int | None, folder: Path) -> Path:
-    """Render a preset into ``folder`` unless a complete rendering of the same spec is already there."""
+    """Render a preset into ``folder`` unless a complete rendering of the same scene, by the same rendering code, is
+    already there (``stress.scene_key``: the spec alone kept truth.csv files written before its ``clear`` column)."""
+    from stereotrack.commands.stress import scene_key
     from stereotrack.errors import StereotrackError
     from stereotrack.recording import open_recording
     from stereotrack.simulation.presets import make_preset
@@ -68,14 +70,15 @@ def render(preset: str, fps: float, frames: int | None, folder: Path) -> Path:
         overrides["n_frames"] = frames
     spec = make_preset(preset, **overrides)
     stamp = folder / "spec.txt"
-    if stamp.is_file() and stamp.read_text() == repr(spec):
+    key = scene_key(spec)
+    if stamp.is_file() and stamp.read_text() == key:
         try:
             if open_recording(folder).n_frames == spec.n_frames:
                 return folder
         except StereotrackError:
             pass
     render_scene(spec, folder, progress=True, overwrite=True)
-    stamp.write_text(repr(spec))
+    stamp.write_text(key)
     return folder
 
 
