@@ -6,7 +6,9 @@ each again event by event (``stereotrack.evaluate.error_events``: the same assig
 ``stereotrack eval``), then sorts them:
 
 - a miss of a ball that some camera shows under HIDDEN of (``simulation.visibility.shown``: behind a prop, deep in a hand) is
-  **hidden in a view**: truth's ``visible`` counts a camera that shows a pixel of it, though a sliver is no view of it;
+  **hidden in a view**: required though a camera hardly sees it (truth's ``clear`` leaves a ball optional when fewer than
+  two cameras show a quarter of it; with three cameras two may, and the third show a sliver; a scene rendered before
+  ``clear`` counts a camera that shows a pixel of it);
 - else a miss before the ball's first match is **not yet found** (the tracker finds a ball late: at start, or when it
   first comes into view); a miss of a ball never matched in its scene is **never found**;
 - a miss after its ball's first match is a ball **lost**: **slow** where the ball moves under SLOW m/s (at rest,
@@ -36,13 +38,13 @@ from stereotrack.evaluate import FALSE, MATCH, MISS, SWITCH, error_events
 from stereotrack.files import replace_section
 from stereotrack.recording import open_recording, read_truth_and_views
 from stereotrack.simulation import visibility
-from stereotrack.simulation.render import SceneRenderer
+from stereotrack.simulation.render import CLEAR_SHARE, SceneRenderer
 from stereotrack.simulation.stress import CATEGORIES, seeds, stress_scene
 from stereotrack.sinks.tracks_csv import read_tracks
 
 SLOW = 1.0  # m/s: a ball slower than this is at rest, held, carried or turning, not flying
 LASTING = 10  # frames: a track false in this many frames of its scene is a ghost that stays
-HIDDEN = 0.25  # a camera that shows under this share of a ball's pixels hardly sees it
+HIDDEN = CLEAR_SHARE  # a camera that shows under this share of a ball's pixels hardly sees it (as truth's ``clear``)
 
 
 @dataclass
@@ -123,7 +125,7 @@ def table(rows: dict[str, Classes], n_seeds: int, seed_set: str, command: str) -
     head = [
         f"Produced by `{command}` on {date.today().isoformat()}, from the tracks `stereotrack stress` left in its cache.",
         f"Per category, the ball-frames of {n_seeds} `{seed_set}` seeds that MOTA counts as misses, false positives and",
-        "id switches, by kind (HIDDEN = 0.25, SLOW = 1 m/s, LASTING = 10 frames; the script's docstring says what each is). MOTA =",
+        f"id switches, by kind (HIDDEN = {HIDDEN:g}, SLOW = {SLOW:g} m/s, LASTING = {LASTING} frames; the script's docstring says what each is). MOTA =",
         "1 - (misses + false positives + id switches) / ball-frames, here over all the seeds at once.",
         "",
         "| category | ball-frames | hidden in a view | not yet found | never found | lost, slow | lost, fast | false, lasting | false, brief | id switches |",

@@ -149,7 +149,7 @@ def run(args) -> int:
             "Compare rows measured on one machine.",
             f"Report seeds {seeds('report', 1)[0]} to {seeds('report', args.seeds)[-1]} of each category; tuning uses other seeds "
             "(`--set tune`). The target is the range a user would type for the ball; MOTA as `stereotrack eval` (0.1 m gate; "
-            "a ball that fewer than two cameras see is optional).",
+            "a ball that fewer than two cameras show a quarter of or more is optional: truth.csv's `clear`).",
             "`particles` is `stereotrack track --method particles` as this checkout configures it: a scene's recording holds "
             "only its typed target (and `fast_ball`'s depth range), every other setting is its default in `stereotrack/config.py`, "
             "so a changed default is what the next run measures; `baseline` is `--method baseline`.",
