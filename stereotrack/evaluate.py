@@ -7,10 +7,11 @@ metres and is reported in millimetres.
 
 A ball that fewer than two cameras see (truth's optional ``clear`` column,
 the cameras that show a quarter of it or more, else ``visible``, the cameras
-that show some of it; both written by the simulator) has no 3D evidence: it may be tracked but need not
-be. Such a row is neither a miss when no track is near it nor a match, and a
-track that stands on it is not a false positive (MOTChallenge's handling of
-ignored ground truth: assign first, then drop both).
+that show some of it; both written by the simulator) has no 3D evidence: it
+may be tracked but need not be. Such a row is neither a miss when no track
+is near it nor a match, and a track that stands on it is not a false positive
+(MOTChallenge's handling of ignored ground truth: assign first, then drop
+both).
 """
 
 from __future__ import annotations
