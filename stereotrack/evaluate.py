@@ -45,6 +45,7 @@ class Evaluation:
     mean_error_mm: float
     p95_error_mm: float
     gate_m: float
+    optional_objects: int = 0  # ball-frames left out: fewer than MIN_VIEWS cameras see them (truth's clear or visible)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -61,6 +62,7 @@ class Evaluation:
             ("mean 3D error", figure(self.mean_error_mm, ".1f", "n/a", " mm")),
             ("p95 3D error", figure(self.p95_error_mm, ".1f", "n/a", " mm")),
             ("frames / true ball-frames", f"{self.frames} / {self.truth_objects}"),
+            ("optional ball-frames", f"{self.optional_objects} (seen by fewer than {MIN_VIEWS} cameras: not scored)"),
             ("gate", f"{self.gate_m:g} m"),
         ]
         return "\n".join(f"{k:>26}: {v}" for k, v in rows)
@@ -120,6 +122,7 @@ def evaluate(
         mean_error_mm=1e3 * float(err.mean()) if len(err) else float("nan"),
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),
         gate_m=gate,
+        optional_objects=0 if views is None else int(((np.asarray(views) < MIN_VIEWS) & np.isin(truth[:, 0], frames)).sum()),
     )
 
 

@@ -51,6 +51,9 @@ def test_a_ball_fewer_than_two_cameras_see_is_optional():
         ev = evaluate(tracks, truth, views=views)
         assert ev.misses == 0 and ev.false_positives == 0 and ev.id_switches == 0
         assert ev.truth_objects == 30 and ev.matches == 30 and ev.mota == pytest.approx(1.0)
+        assert ev.optional_objects == 10 and "optional ball-frames: 10 (" in ev.table()  # said, not hidden
+    assert strict.optional_objects == 0
+    assert evaluate(untracked, truth, frames=np.arange(12), views=views).optional_objects == 2  # within the frames scored
     # A track elsewhere while the ball is hidden is still a false positive; the hidden ball claims one track only.
     stray = np.vstack([coasting, [[12, 0, 7, 2.0, 2.0, 2.0], [12, 0, 8, 0.52, 0.0, 1.5]]])
     ev = evaluate(stray, truth, views=views)
