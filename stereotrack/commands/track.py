@@ -206,10 +206,12 @@ def _track(args, default_out: Path | None, stopper) -> int:
             scored = np.isin(truth[:, 0], tracked)
             ev = evaluate(tracks, truth[scored], frames=tracked, views=None if views is None else views[scored])
             scope = f" (scored over the {len(tracked)} frames tracked)" if len(tracked) < stop - args.start else ""
+            # the ball-frames truth marks as seen clearly by fewer than two cameras: said, as eval's table says them
+            optional = f"; {ev.optional_objects} ball-frames fewer than two cameras see clearly not scored" if ev.optional_objects else ""
             info(
                 f"against the recording's truth.csv{scope}: MOTA {figure(ev.mota, '.3f', NO_BALL)}, MOTP {figure(ev.motp_mm, '.1f', unit=' mm')}, "
                 f"id switches {ev.id_switches}, recall {figure(ev.recall, '.3f')}, precision {figure(ev.precision, '.3f')}, "
-                f"mean 3D error {figure(ev.mean_error_mm, '.1f', unit=' mm')}"
+                f"mean 3D error {figure(ev.mean_error_mm, '.1f', unit=' mm')}{optional}"
             )
         except StereotrackError as exc:  # scoring is a bonus; never fail the run for it
             warn(f"could not score against truth.csv: {exc}")

@@ -2,6 +2,7 @@
 
 import json
 import re
+import shutil
 import subprocess
 import sys
 
@@ -61,6 +62,13 @@ def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, t
     sliver.write_text("\n".join([lines[0], *rows]) + "\n")
     assert json.loads(cli("eval", cut, sliver, "--json").stdout) == optional
     assert json.loads(cli("eval", cut, sliver, "--json", "--count-hidden").stdout) == counted
+    # `track` scores a recording against such a truth.csv as eval does, and says what it left out
+    copy = tmp_path / "copy"
+    shutil.copytree(recording, copy)
+    (copy / "truth.csv").write_text(sliver.read_text())
+    tracked = cli("track", copy, "--out", tmp_path / "again.csv", "--quiet")
+    assert tracked.returncode == 0 and "; 6 ball-frames fewer than two cameras see clearly not scored" in tracked.stderr, tracked.stderr
+    assert "not scored" not in cli("track", recording, "--out", tmp_path / "plain.csv", "--quiet").stderr
     # A file written before `clear` (its `visible` alone) reads as before
     older = tmp_path / "older.csv"
     older.write_text("\n".join([lines[0][: lines[0].rindex(",")], *(r[: r.rindex(",")] for r in hidden)]) + "\n")
