@@ -122,7 +122,7 @@ def evaluate(
         mean_error_mm=1e3 * float(err.mean()) if len(err) else float("nan"),
         p95_error_mm=1e3 * float(np.percentile(err, 95)) if len(err) else float("nan"),
         gate_m=gate,
-        optional_objects=0 if views is None else int(((np.asarray(views) < MIN_VIEWS) & np.isin(truth[:, 0], frames)).sum()),
+        optional_objects=int((_optional(truth, views) & np.isin(truth[:, 0], frames)).sum()),
     )
 
 
@@ -159,7 +159,7 @@ def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, vie
     if frames is None:
         frames = np.union1d(truth[:, 0], tracks[:, 0]).astype(int)
     acc = mm.MOTAccumulator(auto_id=False)
-    optional = np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
+    optional = _optional(truth, views)
     t_by_frame = _group(np.column_stack([truth[:, :5], optional]), 0)
     h_by_frame = _group(tracks, 0)
     for f in frames:
@@ -171,6 +171,11 @@ def _accumulated(tracks: np.ndarray, truth: np.ndarray, gate: float, frames, vie
             t, h, d = _without_optional(t, h, d)
         acc.update(t[:, 1].astype(int).tolist(), h[:, 2].astype(int).tolist(), d, frameid=int(f))
     return acc, frames
+
+
+def _optional(truth: np.ndarray, views: np.ndarray | None) -> np.ndarray:
+    """Per truth row: is its ball optional (fewer than MIN_VIEWS cameras see it; none without ``views``)?"""
+    return np.zeros(len(truth), bool) if views is None else np.asarray(views) < MIN_VIEWS
 
 
 def _without_optional(t: np.ndarray, h: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -41,8 +41,14 @@ def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, t
     assert cli("track", recording, "--out", out, "--quiet").returncode == 0
     lines = (recording / "truth.csv").read_text().splitlines()
     assert lines[0].endswith(",visible,clear")
+
     # Ball 0 hidden in every camera from frame 6: its truth rows say so, and its track is cut there.
-    hidden = [",".join([*r.split(",")[:5], "0", "0"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
+    def ball0_from_frame6(visible: str, clear: str) -> list[str]:  # the truth rows, ball 0's from frame 6 seen so
+        return [
+            ",".join([*r.split(",")[:5], visible, clear]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]
+        ]
+
+    hidden = ball0_from_frame6("0", "0")
     truth = tmp_path / "truth.csv"
     truth.write_text("\n".join([lines[0], *hidden]) + "\n")
     tracks = read_tracks(out)
@@ -58,8 +64,7 @@ def test_eval_leaves_a_ball_no_two_cameras_see_optional_unless_told(recording, t
     assert counted["misses"] == 6 and counted["mota"] < optional["mota"]
     # Seen by both cameras but shown clearly by one only (a sliver in the other): optional as well, by truth's `clear`
     sliver = tmp_path / "sliver.csv"
-    rows = [",".join([*r.split(",")[:5], "2", "1"]) if r.split(",")[1] == "0" and int(r.split(",")[0]) >= 6 else r for r in lines[1:]]
-    sliver.write_text("\n".join([lines[0], *rows]) + "\n")
+    sliver.write_text("\n".join([lines[0], *ball0_from_frame6("2", "1")]) + "\n")
     assert json.loads(cli("eval", cut, sliver, "--json").stdout) == optional
     assert json.loads(cli("eval", cut, sliver, "--json", "--count-hidden").stdout) == counted
     # `track` scores a recording against such a truth.csv as eval does, and says what it left out
