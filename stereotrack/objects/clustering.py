@@ -57,7 +57,6 @@ EM_ITERATIONS = 4  # EM steps in the first round
 LATER_EM_ITERATIONS = 2  # EM steps in later rounds: they only settle local changes
 SPLIT_ROUNDS = 2  # splits only in the first rounds, so a cluster cannot split and merge back and forth
 EM_POINTS = 250  # EM runs on at most this many particles, resampled by weight
-SUBSAMPLE_MIN_POINTS = 2  # ... and keeps a cluster of two of them or more (one point spans nothing)
 SPLIT_FACTOR = 1.0  # split a cluster whose projected spread (std) exceeds this many apparent ball radii
 
 
@@ -144,9 +143,6 @@ def cluster_particles(
         X, w = X_all[idx], np.full(EM_POINTS, w_all.sum() / EM_POINTS)
     else:
         X, w = X_all, w_all
-    # min_particles counts the population's particles (the last test, below); a subsample of EM_POINTS holds a cluster of
-    # mass m as about EM_POINTS m points, so there it would ask a mass of min_particles / EM_POINTS (0.032) of every cluster
-    min_points = settings.min_particles if len(X) == len(X_all) else SUBSAMPLE_MIN_POINTS
     R = settings.radius
     reg = (R / 4) ** 2
     prev = np.zeros((0, 3)) if prev_means is None else prev_means
@@ -162,7 +158,7 @@ def cluster_particles(
             means, covs, pis, resp = _sklearn_em(X, w, means, covs, iterations, reg, rng)
         else:
             means, covs, pis, resp = weighted_em(X, w, means, covs, iterations, reg)
-        alive, mass, labels = keep_heavy(resp, w, settings.min_mass, min_points)  # discard light clusters
+        alive, mass, labels = keep_heavy(resp, w, settings.min_mass, settings.min_particles)  # discard light clusters
         changed = not alive.all()
         means, covs = means[alive], covs[alive]
         if len(means) == 0:

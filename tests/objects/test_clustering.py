@@ -70,25 +70,3 @@ def test_compiled_log_gauss_matches_the_textbook_formula():
         maha = np.einsum("ni,ij,nj->n", d, np.linalg.inv(covs[k]), d)
         want = np.log(pis[k]) - 0.5 * (maha + np.log(np.linalg.det(covs[k])) + 3 * np.log(2 * np.pi))
         assert np.allclose(got[:, k], want, rtol=1e-9, atol=1e-6)
-
-
-def test_a_ball_with_a_small_share_of_the_weight_is_a_cluster_above_the_thresholds():
-    """A ball held in a hand reads 0.2-0.3 where a ball in flight reads 1: 2 % of the weight, in hundreds of particles.
-    That is above cluster_min_mass and cluster_min_particles, so it is a cluster, though EM runs on a subsample of the
-    particles that holds it as a handful of points (fewer than cluster_min_particles). Lighter, or in fewer particles
-    than cluster_min_particles, it is not."""
-    rng = np.random.default_rng(4)
-    rig = default_rig()
-    settings = ClusterSettings(radius=RADIUS)
-    free, held = np.array([0.0, 1.5, 0.0]), np.array([0.3, 1.4, -0.1])
-
-    def clusters(n_held, share):
-        X = np.vstack([ball_cloud(rng, free, 1700, rig), ball_cloud(rng, held, n_held, rig)])
-        w = np.r_[np.full(1700, (1 - share) / 1700), np.full(n_held, share / n_held)]
-        return cluster_particles(X, w, np.ones(len(X)), rig.cameras, settings, rng=np.random.default_rng(0)).means
-
-    means = clusters(300, 0.02)
-    assert len(means) == 2 and np.linalg.norm(means - held, axis=1).min() < 0.01
-    for n_held, share in ((300, 0.5 * settings.min_mass), (settings.min_particles - 3, 0.02)):
-        means = clusters(n_held, share)
-        assert len(means) == 1 and np.linalg.norm(means[0] - free) < 0.01, (n_held, share)
