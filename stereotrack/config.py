@@ -137,7 +137,13 @@ class TrackerSettings:
     )
     cluster_min_likelihood: float = setting(0.05, "particles below this likelihood are not clustered", low=0.0, high=1.0)
     cluster_min_mass: float = setting(0.01, "clusters with less weight are dropped", low=0.0, high=1.0)
-    cluster_min_particles: int = setting(8, "clusters with fewer particles are dropped", low=1, high=1_000_000)
+    cluster_min_particles: int = setting(
+        8,
+        "clusters with fewer particles are dropped; while EM runs on its 250-particle subsample, those with fewer of its points"
+        " (under 0.032 of the weight at 8)",
+        low=1,
+        high=1_000_000,
+    )
     max_objects: int = setting(12, "at most this many objects per target", low=1, high=1000)
     em: str = setting(
         "numpy",
