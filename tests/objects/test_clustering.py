@@ -70,3 +70,16 @@ def test_compiled_log_gauss_matches_the_textbook_formula():
         maha = np.einsum("ni,ij,nj->n", d, np.linalg.inv(covs[k]), d)
         want = np.log(pis[k]) - 0.5 * (maha + np.log(np.linalg.det(covs[k])) + 3 * np.log(2 * np.pi))
         assert np.allclose(got[:, k], want, rtol=1e-9, atol=1e-6)
+
+
+def test_the_settings_table_says_the_mass_floor_of_em_s_subsample():
+    """cluster_min_particles' line names the subsample's size and the mass floor it sets (a user lowering
+    cluster_min_mass under it sees no change): kept true when EM_POINTS or the default changes."""
+    from dataclasses import fields
+
+    from stereotrack.config import TrackerSettings
+    from stereotrack.objects.clustering import EM_POINTS
+
+    (field,) = [f for f in fields(TrackerSettings) if f.name == "cluster_min_particles"]
+    assert f"{EM_POINTS}-particle subsample" in field.metadata["doc"]
+    assert f"under {field.default / EM_POINTS:.3f} of the weight at {field.default}" in field.metadata["doc"]
