@@ -10,6 +10,7 @@ and the standard error of that mean, how many runs fall under 0.85 (the issue's 
 each version does better on (their MOTA averaged over the tracker seeds, by more than SCENE_MARGIN).
 
     stereotrack stress --set tune --seeds 80 --tracker-seed 1    # in each checkout, for each tracker seed 0..3
+    # (one --cache for both checkouts renders the scenes once; copy the base's results CSVs aside before the new runs)
     .venv/bin/python benchmarks/compare_runs.py \\
         --base out/stress/tune-results.csv out/stress/tune-results_seed1.csv ... \\
         --new ../new/out/stress/tune-results.csv ../new/out/stress/tune-results_seed1.csv ...
