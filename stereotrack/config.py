@@ -97,7 +97,8 @@ class TrackerSettings:
         "ball in every view, 6 pixels or more in radius (a ball at rest against a wall), and one of a coloured target "
         "whose blob is a ball's disc of the size at its depth in no view, or that lies at the end of a bar of its colour as "
         "wide as it in some view (unless, before things of its colour, its outline shows all round), or that is one flat "
-        "colour in every view (a sticker), is no ball: both dropped (with motion only)",
+        "colour in every view (a sticker), or whose outline is round in no view that shows it 5 pixels or more in radius (a "
+        "cube), is no ball: both dropped (with motion only)",
     )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"

@@ -9,6 +9,8 @@ from stereotrack.evidence.blobs import find_blobs
 from stereotrack.evidence.colour import integral_image, target_mask, to_hsv
 from stereotrack.evidence.gather import CameraEvidence
 from stereotrack.objects.surface import (
+    OUTLINE_MIN_PX,
+    OUTLINE_SHARE,
     SURFACE_RATIO,
     VERDICT_SECONDS,
     SurfacePatches,
@@ -17,6 +19,8 @@ from stereotrack.objects.surface import (
     in_bar,
     on_surface,
     rimmed,
+    round_rim,
+    rounded,
     surface_ratio,
     whole_ball,
 )
@@ -303,3 +307,44 @@ def test_a_whole_ball_at_rest_against_a_patterned_wall_is_a_ball_though_its_surr
     thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
     dropped = SurfacePatches(RADIUS, rig.cameras, colour=PINK).drop(thing, _shapes_views(rig, at, "disc"), images, nothing_travelled, 0.0)
     assert dropped.tolist() == [True]
+
+
+def _shaded_squares(rig, at, images, radius: float = RADIUS):
+    """``images`` with a pink square as wide as a ball at ``at`` drawn over its projection in each, lit from above (its
+    value falls by half from top to bottom: shaded, as a cube's face is)."""
+    out = []
+    for cam, image in zip(rig.cameras, images):
+        uv, _, z = cam.view(np.asarray(at, float)[None])
+        r = float(cam.apparent_radius(radius, z[0]))
+        u, v, k = int(round(uv[0][0])), int(round(uv[0][1])), int(round(r))
+        image = image.copy()
+        light = np.linspace(1.0, 0.5, 2 * k + 1)[:, None, None]
+        image[v - k : v + k + 1, u - k : u + k + 1] = (np.array([180, 105, 255]) * light).astype(np.uint8)
+        out.append(image)
+    return out
+
+
+def test_a_still_thing_whose_outline_is_round_in_no_view_is_no_ball():
+    """A cube of the ball's colour on a stand, seen by both cameras at one depth (static_props seed 151: a track for 85
+    frames), is a blob of a ball's size and shaded, and its surround lies behind it: every test but its outline's keeps
+    it. A ball's outline crosses a circle of its size radially all round (``round_rim``), a square's only where its sides
+    meet the circle. A still thing whose outline is round in no view that shows it OUTLINE_MIN_PX or more in radius is
+    dropped (``rounded``); a ball is not, nor a thing round in one view only (a ball that the other view hides, or whose
+    depth is not yet found), nor a square too small in every view to tell."""
+    rig = default_rig()
+    at = np.array([0.1, 1.5, 0.05])
+    thing = [Object3D("pink", at, np.eye(3) * 1e-4, 1.0, 100)]
+    patches, views, nothing_travelled = SurfacePatches(RADIUS, rig.cameras, colour=PINK), _shapes_views(rig, at, "disc"), np.zeros((0, 3))
+    ball = _draw(rig, False, ball=at)
+    square = _shaded_squares(rig, at, _draw(rig, False))
+    for cam, b, s in zip(rig.cameras, ball, square):
+        uv, _, z = cam.view(at[None])
+        uv, r = uv[0], float(cam.apparent_radius(RADIUS, z[0]))
+        assert r >= OUTLINE_MIN_PX and round_rim(b, uv, r) >= 0.8 and round_rim(s, uv, r) < OUTLINE_SHARE
+    assert not flat(at, RADIUS, rig.cameras, square, PINK)  # shaded: the flat test keeps it
+    for images, dropped in [(ball, False), (square, True), ([ball[0], square[1]], False), ([square[0], ball[1]], False)]:
+        assert rounded(at, RADIUS, rig.cameras, images) is not dropped
+        assert patches.drop(thing, views, images, nothing_travelled, 0.0).tolist() == [dropped]
+    far = np.array([0.1, 9.0, 0.05])  # a few pixels across in each view: its outline tells nothing
+    assert all(cam.apparent_radius(RADIUS, cam.view(far[None])[2][0]) < OUTLINE_MIN_PX for cam in rig.cameras)
+    assert rounded(far, RADIUS, rig.cameras, _shaded_squares(rig, far, _draw(rig, False)))
