@@ -350,8 +350,8 @@ def _outlined(image: np.ndarray, centre: np.ndarray, r: float) -> bool:
 def round_rim(image: np.ndarray, centre: np.ndarray, r: float) -> float:
     """The share of OUTLINE_ANGLES directions from ``centre`` in which an edge of ``image`` (OUTLINE_EDGE levels per pixel
     or more in some channel, Sobel) crosses a circle of OUTLINE_SCALES x ``r`` radially, at the one such circle
-    (or the circles either side of it) where most do: 1 for a ball's outline all round, low for a square's or a
-    pair of things'. Samples off the image count as no edge."""
+    (or the circles either side of it) where most do: 1 for a ball's outline all round, at most about a half for a
+    square's. Samples off the image count as no edge."""
     h, w = image.shape[:2]
     radii = np.maximum(OUTLINE_SCALES * r, 1.5)
     grow = int(np.ceil(radii[-1])) + 2
