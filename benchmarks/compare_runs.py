@@ -1,7 +1,7 @@
 """Two versions of the tracker on the same stress scenes, with the luck of the particles' draws measured, not guessed.
 
 A scene's MOTA moves with the particle tracker's random seed (``stereotrack stress --tracker-seed N``): where a
-ball is weak, a few particles more or less decide whether a ghost lasts or a ball is found. On validation seeds 80-159
+ball is weak, a few particles more or less decide whether a ghost lasts or a ball is found. On tune seeds 80-159
 of ``hands`` the same code summed 74.3, 75.8, 76.1 and 76.8 over its 80 scenes with tracker seeds 0-3, so a change
 measured with one tracker seed can gain or lose 2.5 by luck alone. This pairs the results CSVs of a base and a new
 version run on the same scenes with the same tracker seeds (``--base`` and ``--new``, one file per tracker seed, in

@@ -161,7 +161,7 @@ def cluster_particles(
         # Discard light clusters. On a subsample min_particles counts its points: a cluster under min_particles / EM_POINTS
         # of the weight goes (0.032 at the defaults, above min_mass). That is a floor against weak modes the tracker relies
         # on: counted in the population's particles instead, a ball held in a hand (2 % of the weight) stayed a cluster,
-        # and so did the empty hand and a prop's edge. Seeds 80-159 (never tuned on), four tracker seeds each
+        # and so did the empty hand and a prop's edge. Seeds 80-159 (earlier changes were tuned on them too), four tracker seeds each
         # (benchmarks/compare_runs.py): hands -0.68, hue_wall -0.09, static_props -0.63 summed (each within luck),
         # white_ball +0.08; runs under 0.85 in the first three 76 -> 85 of 960. No better, so not changed.
         alive, mass, labels = keep_heavy(resp, w, settings.min_mass, settings.min_particles)

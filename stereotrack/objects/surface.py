@@ -366,8 +366,7 @@ def round_rim(image: np.ndarray, centre: np.ndarray, r: float) -> float:
         gx, gy = gx[..., None], gy[..., None]
     points = np.rint(np.asarray(centre) + radii[:, None, None] * _OUTLINE_DIRECTIONS).astype(int)  # S x A x 2
     xs, ys = points[..., 0] - x0, points[..., 1] - y0
-    inside = (points[..., 0] >= 0) & (points[..., 0] < w) & (points[..., 1] >= 0) & (points[..., 1] < h)
-    inside &= (xs >= 0) & (xs < x1 - x0) & (ys >= 0) & (ys < y1 - y0)
+    inside = (points[..., 0] >= 0) & (points[..., 0] < w) & (points[..., 1] >= 0) & (points[..., 1] < h)  # (and so in the crop)
     xs, ys = np.clip(xs, 0, x1 - x0 - 1), np.clip(ys, 0, y1 - y0 - 1)
     cos, sin = _OUTLINE_DIRECTIONS[:, 0, None], _OUTLINE_DIRECTIONS[:, 1, None]
     radial = np.abs(gx[ys, xs] * cos + gy[ys, xs] * sin)  # S x A x C
