@@ -1,12 +1,25 @@
 """`stereotrack bench --docs`: the table, how it was made and the speed targets go into the file's tracker-bench
 section, nested in BENCHMARKS.md's tracker section, and nothing else changes; bad use is one line and changes nothing."""
 
+import re
+import shutil
+from pathlib import Path
+
 import pytest
 
 from stereotrack.cli import main as cli_main
 from stereotrack.files import read_section, replace_section
 
+ROOT = Path(__file__).resolve().parents[2]
 INNER = ("<!-- section: tracker-bench -->", "<!-- /section: tracker-bench -->")
+TARGET_LINE = r"- {size}: measured \d+\.\dx \(target <= {target}x\): (met|not met)"
+
+
+def _outside(data: bytes) -> tuple[bytes, bytes]:
+    """The bytes before the tracker-bench section's opening marker and after its closing one (each marker once)."""
+    head, rest = data.split(INNER[0].encode())
+    _, tail = rest.split(INNER[1].encode())
+    return head, tail
 
 
 def test_replace_section_finds_a_section_nested_in_another_and_keeps_the_outer_one(tmp_path):
@@ -18,6 +31,27 @@ def test_replace_section_finds_a_section_nested_in_another_and_keeps_the_outer_o
     replace_section(doc, "tracker-bench", "new table")
     assert doc.read_text() == nested("new table")
     assert read_section(doc, "tracker") == f"prose\n{INNER[0]}\nnew table\n{INNER[1]}\nmore prose"
+
+
+def test_docs_writes_the_command_date_machine_table_and_target_into_benchmarks_md(tmp_path, capsys):
+    doc = tmp_path / "BENCHMARKS.md"
+    shutil.copyfile(ROOT / "BENCHMARKS.md", doc)  # the real file: its markers nested in the tracker section, text around
+    before = doc.read_bytes()
+    assert cli_main(["bench", "--quick", "--frames", "12", "--docs", str(doc)]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-1].startswith("| 640x480 | 2000 | 0.2 |")  # stdout still ends on the table (`| tail -1`)
+    after = doc.read_bytes()
+    assert _outside(after) == _outside(before)  # byte for byte outside the section
+    section = read_section(doc, "tracker-bench")
+    assert section != read_section(ROOT / "BENCHMARKS.md", "tracker-bench")
+    assert INNER[0] in read_section(doc, "tracker")  # still inside the tracker section
+    assert re.match(
+        rf"Produced by `stereotrack bench --quick --frames 12 --docs {re.escape(str(doc))}` on \d{{4}}-\d\d-\d\d \(UTC\)", section
+    )
+    assert re.search(r"\d+ cores \(CPU: [^)]+\)", section) and "12 frames per case" in section
+    assert "| size | N | alpha | step ms | floor ms | step / floor |" in section and "\n| 640x480 | 2000 | 0.2 | " in section
+    assert re.search("^" + TARGET_LINE.format(size="640x480", target=5) + "$", section, re.M)
+    assert "1280x720" not in section  # --quick measures 640x480 only: no line for the other target
 
 
 def test_docs_judges_every_target_as_printed_and_a_failed_run_leaves_the_file_as_it_was(tmp_path, capsys, monkeypatch):
