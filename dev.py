@@ -3,7 +3,7 @@
 
     python3 dev.py demo [ARGS]   # track the bundled demo recording
     python3 dev.py test [ARGS]   # the whole test suite (ARGS go to pytest)
-    python3 dev.py bench [ARGS]  # the benchmark (writes BENCHMARKS.md figures)
+    python3 dev.py bench [ARGS]  # the benchmark (--docs BENCHMARKS.md writes its table there)
 
 Needs only Python >= 3.11 with pip and venv; everything else is installed into .venv.
 """
