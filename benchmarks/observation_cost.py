@@ -38,6 +38,7 @@ VARIANTS = [
     ("every pixel (evidence_scale 1)", {"evidence_scale": 1}),  # the default builds 1280-wide evidence on every other pixel
     ("colour window likelihood", {"likelihood": "colour_window"}),
     ("no surface test", {"surfaces": False}),
+    ("no outline search", {"outlines": False}),
     ("all off (the paper's model)", {"colour_model": False, "motion": False, "ball_blobs_only": False, "likelihood": "colour_window"}),
 ]
 

@@ -100,6 +100,14 @@ class TrackerSettings:
         "colour in every view (a sticker), or whose outline is round in no view that shows it 5 pixels or more in radius (a "
         "cube), is no ball: both dropped (with motion only)",
     )
+    outlines: bool = setting(
+        True,
+        "a still blob of a target's colour (of its evidence or of its range) that no other view shows as the same ball is "
+        "looked for along its viewing ray by its outline: where another camera shows a round outline of the ball's size at "
+        "one depth (a ball at rest before a wall of its colour there), and the blob's own outline is round too, both discs "
+        "count as moving and the buried one's ring as out of the range; a tracked ball at rest whose outline is round in two "
+        "views stays so (with motion and two cameras or more only)",
+    )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"
     )

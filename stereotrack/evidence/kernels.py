@@ -536,3 +536,39 @@ def _union(parent, i, j):
         parent[b] = a
     elif b < a:
         parent[a] = b
+
+
+@kernel
+def rim_shares(gx, gy, centres, radii, scales, directions, least, tan):
+    """outlines.round_rims' count per circle (``centres`` K x 2 and ``radii`` K, pixels of the gradient's box): at each
+    of ``scales`` x its radius and each of ``directions`` (A x 2 unit), whether some channel's gradient (``gx``, ``gy``:
+    H x W x C, Sobel / 8) at the nearest pixel is ``least`` or more radially and its tangential part at most ``tan`` of
+    that; a circle counts the circles either side of it; the share of directions at the best circle. A sample off the
+    box counts as no edge."""
+    k_n, s_n, a_n, c_n = centres.shape[0], scales.shape[0], directions.shape[0], gx.shape[2]
+    h, w = gx.shape[0], gx.shape[1]
+    out = np.zeros(k_n)
+    edge = np.zeros((s_n, a_n), np.bool_)
+    for k in range(k_n):
+        for s in range(s_n):
+            r = max(scales[s] * radii[k], 1.5)
+            for a in range(a_n):
+                cos, sin = directions[a, 0], directions[a, 1]
+                x, y = int(np.rint(centres[k, 0] + r * cos)), int(np.rint(centres[k, 1] + r * sin))
+                hit = False
+                if 0 <= x < w and 0 <= y < h:
+                    for c in range(c_n):
+                        radial = abs(gx[y, x, c] * cos + gy[y, x, c] * sin)
+                        if radial >= least and abs(gy[y, x, c] * cos - gx[y, x, c] * sin) <= tan * radial:
+                            hit = True
+                            break
+                edge[s, a] = hit
+        best = 0
+        for s in range(s_n):
+            count = 0
+            for a in range(a_n):
+                if edge[s, a] or (s > 0 and edge[s - 1, a]) or (s + 1 < s_n and edge[s + 1, a]):
+                    count += 1
+            best = max(best, count)
+        out[k] = best / a_n
+    return out

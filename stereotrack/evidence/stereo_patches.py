@@ -73,20 +73,29 @@ def paired(
             a, b = a[some], b[some]
             if not len(a):
                 continue
-            points = triangulate_points([cameras[i], cameras[j]], [ci[a], cj[b]])
-            ok = np.ones(len(a), bool)
-            for cam, centres, radii, k in ((cameras[i], ci, ri, a), (cameras[j], cj, rj, b)):
-                uv, front, depth = cam.view(points)
-                off = np.linalg.norm(uv - centres[k], axis=1)
-                expected = cam.apparent_radius(radius, depth)
-                ok &= front & (depth >= d_min) & (depth <= d_max) & (off <= 0.5 * (PAIR_CELLS * scale + PAIR_RADII * radii[k]))
-                ok &= (radii[k] <= SIZE_RATIO * expected) & (expected <= SIZE_RATIO * radii[k])
+            ok, points = same_ball(cameras[i], cameras[j], ci[a], ri[a], cj[b], rj[b], radius, d_min, d_max, PAIR_CELLS * scale)
             if scenery is not None:
                 for k in np.flatnonzero(ok):
                     ok[k] = not scenery(points[k])
             kept[i][ki[a[ok & (ki[a] >= 0)]]] = True
             kept[j][kj[b[ok & (kj[b] >= 0)]]] = True
     return [np.isin(f[0], np.flatnonzero(k) + 1).astype(np.uint8) for f, k in zip(found, kept)]
+
+
+def same_ball(cam_i, cam_j, ci, ri, cj, rj, radius: float, d_min: float, d_max: float, slack: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per pair of discs (centres ``ci`` in ``cam_i``, ``cj`` in ``cam_j``, K x 2 pixels; radii ``ri``, ``rj``), whether
+    they are one ball of ``radius`` metres: the point they triangulate to is in front of both cameras, ``d_min`` ..
+    ``d_max`` metres deep and within half of ``slack`` plus PAIR_RADII of each disc's radius of its centre, and each disc
+    is as wide as the ball there (SIZE_RATIO); and those points (K x 3)."""
+    points = triangulate_points([cam_i, cam_j], [ci, cj])
+    ok = np.ones(len(points), bool)
+    for cam, centres, radii in ((cam_i, ci, ri), (cam_j, cj, rj)):
+        uv, front, depth = cam.view(points)
+        off = np.linalg.norm(uv - centres, axis=1)
+        expected = cam.apparent_radius(radius, depth)
+        ok &= front & (depth >= d_min) & (depth <= d_max) & (off <= 0.5 * (slack + PAIR_RADII * radii))
+        ok &= (radii <= SIZE_RATIO * expected) & (expected <= SIZE_RATIO * radii)
+    return ok, points
 
 
 def _both(crowded: tuple, alone: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

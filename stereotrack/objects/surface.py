@@ -27,6 +27,7 @@ from ..camera import Camera
 from ..config import Target
 from ..evidence.colour import box_counts, target_mask, to_hsv
 from ..evidence.gather import CameraEvidence
+from ..evidence.outlines import OUTLINE_MIN_PX, round_rim
 from .shapes import ROUND_FILL, ROUND_MIN_PX
 
 RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
@@ -140,15 +141,7 @@ BAR_END = 2.0
 # in every view), in the view that shows it best: balls under 0.6 in none of 7,810 (the least 0.69); things in 33 of
 # 105, 32 of them a green cube on a stand that both cameras see at one depth (static_props seed 151, a track for 85
 # frames: 0.44-0.54).
-OUTLINE_ANGLES = 48
-OUTLINE_SCALES = np.arange(0.7, 1.41, 0.05)
-OUTLINE_EDGE = 6.0
-OUTLINE_SHARE = 0.6
-# A view that shows it smaller says nothing: its circles span a few pixels, and a thing's corners pass for a rim (a book's
-# end at 4.9 m, 3.6 pixels in radius: 0.77-0.88 in both views, hue_wall seed 147).
-OUTLINE_MIN_PX = 5.0
-_OUTLINE_TAN = np.tan(np.pi / 8)  # the gradient within 22.5 degrees of radial: its tangential part at most this of its radial
-_OUTLINE_DIRECTIONS = np.stack([np.cos(a := np.linspace(0.0, 2 * np.pi, OUTLINE_ANGLES, endpoint=False)), np.sin(a)], axis=-1)
+OUTLINE_SHARE = 0.6  # (a view that shows it under OUTLINE_MIN_PX in radius says nothing: evidence/outlines.py)
 MATCH_FLOOR = 1.0  # grey levels: a ring that matches better than this matches as well as the images' quantisation lets it
 
 
@@ -345,36 +338,6 @@ def _outlined(image: np.ndarray, centre: np.ndarray, r: float) -> bool:
     outside = _sample(image, centre + circles + gap * _DIRECTIONS, grey=False)
     step = np.abs(outside - inside).sum(axis=-1).max(axis=0)  # per direction, at the circle where it steps most
     return bool((step >= RIM_STEP).mean() >= RIM_SHARE)
-
-
-def round_rim(image: np.ndarray, centre: np.ndarray, r: float) -> float:
-    """The share of OUTLINE_ANGLES directions from ``centre`` in which an edge of ``image`` (OUTLINE_EDGE levels per pixel
-    or more in some channel, Sobel) crosses a circle of OUTLINE_SCALES x ``r`` radially, at the one such circle
-    (or the circles either side of it) where most do: 1 for a ball's outline all round, at most about a half for a
-    square's. Samples off the image count as no edge."""
-    h, w = image.shape[:2]
-    radii = np.maximum(OUTLINE_SCALES * r, 1.5)
-    grow = int(np.ceil(radii[-1])) + 2
-    x0, y0 = max(int(centre[0]) - grow, 0), max(int(centre[1]) - grow, 0)
-    x1, y1 = min(int(centre[0]) + grow + 2, w), min(int(centre[1]) + grow + 2, h)
-    if x1 - x0 < 3 or y1 - y0 < 3:
-        return 0.0
-    patch = image[y0:y1, x0:x1].astype(np.float32)
-    # per channel: a blue ball on a brown floor differs from it in colour, hardly in grey (hue_wall seed 3005)
-    gx, gy = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3) / 8.0, cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    if patch.ndim == 2:
-        gx, gy = gx[..., None], gy[..., None]
-    points = np.rint(np.asarray(centre) + radii[:, None, None] * _OUTLINE_DIRECTIONS).astype(int)  # S x A x 2
-    xs, ys = points[..., 0] - x0, points[..., 1] - y0
-    inside = (points[..., 0] >= 0) & (points[..., 0] < w) & (points[..., 1] >= 0) & (points[..., 1] < h)  # (and so in the crop)
-    xs, ys = np.clip(xs, 0, x1 - x0 - 1), np.clip(ys, 0, y1 - y0 - 1)
-    cos, sin = _OUTLINE_DIRECTIONS[:, 0, None], _OUTLINE_DIRECTIONS[:, 1, None]
-    radial = np.abs(gx[ys, xs] * cos + gy[ys, xs] * sin)  # S x A x C
-    tangential = np.abs(gy[ys, xs] * cos - gx[ys, xs] * sin)
-    edge = inside & ((radial >= OUTLINE_EDGE) & (tangential <= _OUTLINE_TAN * radial)).any(axis=-1)
-    edge[1:] |= edge[:-1].copy()  # a circle counts the edges of the circles either side (the outline's estimate is rough)
-    edge[:-1] |= edge[1:].copy()
-    return float(edge.mean(axis=1).max())
 
 
 def _ring_in_range(image: np.ndarray, centre: np.ndarray, r: float, colour: Target) -> float:

@@ -11,7 +11,7 @@ import os
 import time
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -23,12 +23,13 @@ from ..evidence.colour import CameraMasks, camera_masks, motion_range, range_bou
 from ..evidence.colour_model import ColourModel, load_colour_model
 from ..evidence.gather import CameraEvidence, Faint, every_nth, every_nth_and_halved, on_grid
 from ..evidence.motion import SCALE, BackgroundModel, shading, still_only
+from ..evidence.outlines import OutlineFinder, marked
 from ..evidence.stereo_patches import paired
 from ..frames import FramePair
 from ..kernels import KERNELS
 from ..objects.clustering import ClusterSettings, cluster_particles
 from ..objects.explain import ExplainSettings, explain
-from ..objects.surface import SurfacePatches
+from ..objects.surface import SurfacePatches, flat
 from ..particles.population import Population
 from ..results import FrameResult, Object3D, ParticleSet, Rays, TrackedBalls
 from ..tracks.manager import TrackManager
@@ -100,6 +101,9 @@ class Tracker:
         # A white or grey target's shading is compared between cameras (stereo_patches.py) before its evidence is made,
         # where the surface test can tell a pair that is a patch of what it is seen on
         self._pairs_shading = bool(self.surfaces) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
+        # A still disc is looked for in the other views by its outline (evidence/outlines.py); still: with motion only
+        self._outlines = s.outlines and s.motion and len(rig.cameras) > 1
+        self._outline_finders = {t.name: OutlineFinder(rig.cameras, self.scales, t, s) for t in config.targets} if self._outlines else {}
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
@@ -174,9 +178,11 @@ class Tracker:
             per_camera = list(
                 self._pool.map(self._camera_evidence, range(n), pair.images, [held] * n, [confirmed] * n, colours or [None] * n)
             )
-        cmasks = [cm for cm, _, _ in per_camera]
-        views = {t.name: tuple(v[t.name] for _, v, _ in per_camera) for t in self.config.targets}
-        for _, _, (masks_ms, blobs_ms) in per_camera:  # work done, summed over cameras
+        if self._outlines:  # a ball at rest that one view buries in its colour, found by its outline in another
+            self._find_buried(per_camera, pair.images, confirmed, now)
+        cmasks = [cm for cm, _, _, _ in per_camera]
+        views = {t.name: tuple(v[t.name] for _, v, _, _ in per_camera) for t in self.config.targets}
+        for _, _, (masks_ms, blobs_ms), _ in per_camera:  # work done, summed over cameras
             timings["masks"] += masks_ms
             timings["blobs"] += blobs_ms
         t2 = time.perf_counter()
@@ -267,33 +273,67 @@ class Tracker:
                 m.shaded[t.name] |= found
 
     def _camera_views(self, j: int, motion: _CameraMotion, confirmed: TrackedBalls):
-        """Every target's evidence in camera j, from its masks and motion (``_camera_evidence``'s second half)."""
-        s = self.config.tracker
-        cam, k = self.evidence_cameras[j], self.scales[j]
-        cm, small_halved, foreground, shaded = motion.masks, motion.small_halved, motion.foreground, motion.shaded
-        t1 = time.perf_counter()
-        colour = {t.name: self._colour_table(t, j, cm, confirmed, foreground) for t in self.config.targets}
-        views = {
-            t.name: CameraEvidence.from_mask(
-                cam,
-                cm.masks[t.name],
-                None,
-                s.blob_method,
-                max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
-                shaded[t.name] if t.name in shaded else foreground,
-                (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
-                colour[t.name][0],
-                cm.hsv,
-                # read with a colour table only; not for a white or grey ball, whose colour is the room's: what a pixel
-                # replaced is as likely the ball's, and a ball at rest (its shading) is in the background
-                self.backgrounds[j].behind if self.backgrounds and self.colour_models and not t.any_hue else None,
-                *self.moving_ranges[t.name],
-                self._faint(t, j, small_halved),
-                colour[t.name][1],
-            )
-            for t in self.config.targets
-        }
-        return cm, views, (motion.masks_ms, motion.shading_ms + 1e3 * (time.perf_counter() - t1))
+        """Every target's evidence in camera j, from its masks and motion (``_camera_evidence``'s second half); with the
+        ms each half took and ``motion`` (holding the colour tables used, for ``_find_buried``)."""
+        cm, t1 = motion.masks, time.perf_counter()
+        motion.colour = {t.name: self._colour_table(t, j, cm, confirmed, motion.foreground) for t in self.config.targets}
+        views = {t.name: self._target_view(j, t, motion) for t in self.config.targets}
+        return cm, views, (motion.masks_ms, motion.shading_ms + 1e3 * (time.perf_counter() - t1)), motion
+
+    def _target_view(self, j: int, t: Target, motion: _CameraMotion, foreground=None, in_range=None) -> CameraEvidence:
+        """Target ``t``'s evidence in camera j, from its masks, motion and colour table; ``foreground``: what moves for it
+        (default: the camera's foreground, or a white or grey target's shaded map); ``in_range``: its range mask (default:
+        the camera's)."""
+        s, cm, k = self.config.tracker, motion.masks, self.scales[j]
+        if foreground is None:
+            foreground = motion.shaded[t.name] if t.name in motion.shaded else motion.foreground
+        table, things = motion.colour[t.name]
+        return CameraEvidence.from_mask(
+            self.evidence_cameras[j],
+            cm.masks[t.name] if in_range is None else in_range,
+            None,
+            s.blob_method,
+            max(1, round(s.min_blob_area / (k * k))),  # the setting counts full-size pixels
+            foreground,
+            (t.radius, s.d_min, s.d_max) if s.ball_blobs_only else None,
+            table,
+            cm.hsv,
+            # read with a colour table only; not for a white or grey ball, whose colour is the room's: what a pixel
+            # replaced is as likely the ball's, and a ball at rest (its shading) is in the background
+            self.backgrounds[j].behind if self.backgrounds and self.colour_models and not t.any_hue else None,
+            *self.moving_ranges[t.name],
+            self._faint(t, j, motion.small_halved),
+            things,
+        )
+
+    def _find_buried(self, per_camera: list, images, confirmed: TrackedBalls, now: float) -> None:
+        """Per target, the balls that one view buries in their colour, found by their outlines (evidence/outlines.py), count
+        as moving in the views that show them, with the ring round them out of the range where it is of their colour:
+        those views' evidence is made again with them (``per_camera``'s views, in place)."""
+        for t in self.config.targets:
+            views = [v[t.name] for _, v, _, _ in per_camera]
+            in_range = [cm.masks[t.name] for cm, _, _, _ in per_camera]
+            foregrounds = [motion.foreground for _, _, _, motion in per_camera]
+            judge = self._thing_judge(t, images, now)
+            found = self._outline_finders[t.name](views, in_range, foregrounds, images, confirmed.of(t.name).centres, judge)
+            for j, ((_, views, _, motion), discs) in enumerate(zip(per_camera, found)):
+                if len(discs):
+                    moving = motion.shaded[t.name] if t.name in motion.shaded else motion.foreground
+                    views[t.name] = self._target_view(j, t, motion, *marked(moving, in_range[j], discs, self.scales[j]))
+
+    def _thing_judge(self, t: Target, images, now: float):
+        """Is a ball of ``t`` found by its outline at a point a thing? One flat colour in every view (a knob, a sticker:
+        surface.flat) or a patch of the surface it is seen on (surface.SurfacePatches.on_surface, when still objects are
+        judged), as a still object would be judged; its disc moves once found, and a moving object is not."""
+        judge = self.surfaces.get(t.name)
+        colour = None if t.any_hue else t
+
+        def thing(point: np.ndarray) -> bool:
+            if flat(point, t.radius, self.rig.cameras, images, colour):
+                return True
+            return judge is not None and judge.on_surface(point, images, now)
+
+        return thing
 
     def _off_surfaces(self, objects: list[Object3D], into: np.ndarray, views, images, balls: TrackedBalls, now: float) -> tuple:
         """The objects less those that are patches of the surface they are seen on (objects/surface.py: a still object
@@ -364,11 +404,10 @@ class _CameraMotion:
     crowded: dict  # ... and the patches that are not alone (Tracker._shaded)
     masks_ms: float  # the masks and the foreground took
     shading_ms: float  # the shading took
+    colour: dict = field(default_factory=dict)  # per target, its colour table and moving things as _colour_table gave them
 
 
 SHADING_NEAR = 0.5  # metres: the nearest a white ball's shading map expects it (its holes are filled up to its lit centre there)
-
-
 HALF_GRID_MIN_WIDTH = 1280  # automatic evidence_scale: images this wide or wider ...
 HALF_GRID_MIN_RADIUS_PX = 5.0  # ... where the smallest ball at d_max spans at least this radius (full-size pixels)
 
