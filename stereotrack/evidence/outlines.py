@@ -8,14 +8,18 @@ half the directions (objects/surface.py drops still things by it).
 A ball at rest before a wall of its hue (or a white ball before a white
 wall) can show in one view as a disc of its colour and in the other inside a
 region of that colour: its ring is full there, so no particle on it scores,
-and nothing moves. It was never found (hue_wall tune seed 149, white_ball
-tune seeds 34, 103, 138; each a ball at rest for the whole scene). Its outline
-still shows in that view: along the viewing ray of the disc, at the depths
-where the disc is as wide as the ball, the outline in the other view is
-round at one depth only, the ball's (tune seeds: 0.8-1.0 there, at most 0.6
-a few pixels of disparity away). ``buried_partners`` looks for that depth; the
-tracker then counts the ball's disc in both views as moving (the pixels in
-its colour there), and the later stages judge it as any other still object.
+nothing moves, and the colour model, which learns the wall, wipes it out. It
+was never found (white_ball tune seeds 34 and 103, hue_wall 16 and 3051: each
+a ball at rest for the whole scene). Its outline still shows in that view:
+along the viewing ray of the disc, at the depths where the disc is about as
+wide as the ball, the outline in the other view is round at one depth only,
+the ball's (0.8-1.0 there, at most 0.6 a few pixels of disparity away).
+``buried_partners`` looks for that depth and ``held_discs`` keeps a ball so
+found; ``OutlineFinder`` picks the discs to ask frame after frame, and
+``marked`` puts what it found into a camera's maps: the disc moves, and its
+ring leaves the range. A disc that moves is not judged as a still object is
+(objects/surface.py), so the finder asks the tracker's judge before it keeps
+one: a knob on a door is round in both views too.
 """
 
 from __future__ import annotations
@@ -115,11 +119,11 @@ def buried_partners(
     """Per camera, the discs (K x 3: u, v, r in its pixels) of balls found by their outlines: for each of the ``discs``
     seen in a camera (M x 3: centre and radius, its pixels), the one depth along its viewing ray, between ``d_min``
     and ``d_max`` metres and where a ball of ``radius`` metres would look about as wide (WIDTH_RATIO), at which another
-    camera shows a round outline of the ball's size and the disc's own outline is round at that size too
-    (FOUND_SHARE), whose core is in the target's colour there (``in_range``: each camera's range mask, uint8 0/1, on a
-    grid a whole number of times coarser than its ``images``), and that ``judge`` (a point, 3) does not call a thing: two views
-    agree on any real thing, and a knob on a door or a pale square on a poster is round in both. Both discs are given, the
-    seen one at the ball's size; and the balls' centres (K x 3)."""
+    camera shows a round outline of the ball's size (FOUND_SHARE) and the disc's own outline is round at that size too
+    (OWN_SHARE), whose core is in the target's colour there (``in_range``: each camera's range mask, uint8 0/1, on a grid
+    a whole number of times coarser than its ``images``), and that ``judge`` (a point, 3) does not call a thing: two
+    views agree on any real thing, and a knob on a door or a pale square on a poster is round in both. Both discs are
+    given, the seen one at the ball's size; and the balls' centres (K x 3)."""
     found: list[list[np.ndarray]] = [[] for _ in cameras]
     points: list[np.ndarray] = []
     for i, cam in enumerate(cameras):
