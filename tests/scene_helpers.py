@@ -49,3 +49,15 @@ def balls_at(centres, target: str = "pink", first_id: int = 1, radius: float = R
     centres = np.asarray(centres, float).reshape(-1, 3)
     n = len(centres)
     return TrackedBalls(centres, np.full(n, radius), np.arange(first_id, first_id + n), (target,) * n, np.full(n, confirmed))
+
+
+def lit_ball(origins: np.ndarray, directions: np.ndarray, centre, radius: float = RADIUS) -> tuple[np.ndarray, np.ndarray]:
+    """Which rays (N x 3 origins and unit directions) hit a ball at ``centre``, and for those how much light its surface
+    takes there (0..1, lit from above and in front): a ray-traced ball's shading."""
+    oc = origins - np.asarray(centre, float)
+    b = np.einsum("ij,ij->i", oc, directions)
+    disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius**2)
+    on = disc > 0
+    normal = (oc[on] + (-b[on] - np.sqrt(disc[on]))[:, None] * directions[on]) / radius
+    light = np.array([0.3, -0.6, 0.75]) / np.linalg.norm([0.3, -0.6, 0.75])
+    return on, np.clip(normal @ light, 0.0, 1.0)

@@ -4,7 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from scene_helpers import RADIUS, default_rig
+from scene_helpers import RADIUS, default_rig, lit_ball
 
 from stereotrack.config import Config, Target
 from stereotrack.evidence.colour import target_mask, to_hsv
@@ -42,13 +42,8 @@ def _scene(rig, ball=BALL, buried: int = 1, noise: int = 0, seed: int = 0):
         hit = o + ((WALL_Y - o[:, 1]) / d[:, 1])[:, None] * d
         image = np.tile(np.array([128, 128, 128], np.uint8), (len(d), 1))
         image[(hit[:, 0] - edge) * towards > 0] = PINK_BGR
-        oc = o - ball
-        b = np.einsum("ij,ij->i", oc, d)
-        disc = b * b - (np.einsum("ij,ij->i", oc, oc) - RADIUS**2)
-        on = disc > 0
-        normal = (oc[on] + (-b[on] - np.sqrt(disc[on]))[:, None] * d[on]) / RADIUS
-        light = np.array([0.3, -0.6, 0.75]) / np.linalg.norm([0.3, -0.6, 0.75])
-        image[on] = (PINK_BGR * (0.3 + 0.55 * np.clip(normal @ light, 0.0, 1.0))[:, None]).astype(np.uint8)
+        on, lit = lit_ball(o, d, ball)
+        image[on] = (PINK_BGR * (0.3 + 0.55 * lit)[:, None]).astype(np.uint8)  # never as bright as the panel
         image = image.reshape(cam.height, cam.width, 3)
         if noise:
             image = np.clip(image + rng.normal(0, noise, image.shape), 0, 255).astype(np.uint8)

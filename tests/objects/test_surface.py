@@ -2,7 +2,7 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from scene_helpers import RADIUS, default_rig
+from scene_helpers import RADIUS, default_rig, lit_ball
 
 from stereotrack.config import Target
 from stereotrack.evidence.blobs import find_blobs
@@ -51,13 +51,8 @@ def _draw(rig, wall_texture: bool, ball=None, painted=None, radius=RADIUS, wall=
         if painted is not None:
             image[np.hypot(hit[:, 0] - painted[0], hit[:, 2] - painted[1]) < radius] = pink
         if ball is not None:
-            oc = o - np.asarray(ball, float)
-            b = np.einsum("ij,ij->i", oc, d)
-            disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius**2)
-            on = disc > 0
-            normal = (oc[on] + (-b[on] - np.sqrt(disc[on]))[:, None] * d[on]) / radius
-            light = np.array([0.3, -0.6, 0.75]) / np.linalg.norm([0.3, -0.6, 0.75])
-            image[on] = (pink * (0.35 + 0.65 * np.clip(normal @ light, 0.0, 1.0))[:, None]).astype(np.uint8)
+            on, lit = lit_ball(o, d, ball, radius)
+            image[on] = (pink * (0.35 + 0.65 * lit)[:, None]).astype(np.uint8)
         images.append(np.ascontiguousarray(image.reshape(cam.height, cam.width, 3)))
     return images
 
