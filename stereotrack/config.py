@@ -102,11 +102,11 @@ class TrackerSettings:
     )
     outlines: bool = setting(
         True,
-        "a still blob of a target's colour (of its evidence or of its range) that no other view shows as the same ball is "
-        "looked for along its viewing ray by its outline: where another camera shows a round outline of the ball's size at "
-        "one depth (a ball at rest before a wall of its colour there), and the blob's own outline is round too, both discs "
-        "count as moving and the buried one's ring as out of the range; a tracked ball at rest whose outline is round in two "
-        "views stays so (with motion and two cameras or more only)",
+        "a white or grey target's still blob that no other view shows as the same ball is looked for along its viewing ray "
+        "by its outline: where another camera shows a round outline of the ball's size at one depth (a ball at rest before "
+        "a white wall there), the blob's own outline is round too, and it is neither one flat colour (a knob) nor a patch "
+        "of the surface it is seen on, both discs count as moving and the buried one's ring as out of the range; a ball so "
+        "found stays so while it is still (with motion and two cameras or more only)",
     )
     ball_blobs_only: bool = setting(
         True, "abductive particles start only from blobs that could be a ball at some depth in [d_min, d_max] (size, roundness)"

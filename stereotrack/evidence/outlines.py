@@ -25,16 +25,34 @@ one: a knob on a door is round in both views too.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from ..camera import Camera
-from .blobs import ball_like, find_blobs
 from .gather import CameraEvidence
 from .kernels import rim_shares
 from .motion import SCALE
 from .stereo_patches import same_ball
+
+
+@dataclass(frozen=True, eq=False)
+class Find:
+    """A ball found by its outline: its centre, and its disc in each camera that shows it."""
+
+    point: np.ndarray  # 3, metres
+    discs: tuple  # of (camera index, np.ndarray([u, v, r]) in its pixels)
+
+
+def per_camera(finds: Sequence[Find], n: int) -> list[np.ndarray]:
+    """The discs of ``finds`` per camera (``n`` of them): K x 3 arrays (u, v, r)."""
+    out: list[list[np.ndarray]] = [[] for _ in range(n)]
+    for find in finds:
+        for j, disc in find.discs:
+            out[j].append(disc)
+    return [np.array(d).reshape(-1, 3) for d in out]
+
 
 # round_rims: an edge crossing one circle about the ball's apparent size (OUTLINE_SCALES of it: its depth and centre are
 # an estimate's) radially, OUTLINE_EDGE levels per pixel or more in some channel and within 22.5 degrees of the circle's
@@ -115,17 +133,16 @@ def buried_partners(
     d_min: float,
     d_max: float,
     judge: Callable[[np.ndarray], bool] | None = None,
-) -> tuple[list[np.ndarray], np.ndarray]:
-    """Per camera, the discs (K x 3: u, v, r in its pixels) of balls found by their outlines: for each of the ``discs``
+) -> list[Find]:
+    """The balls found by their outlines (Find: centre and discs, u, v, r in each camera's pixels): for each of the ``discs``
     seen in a camera (M x 3: centre and radius, its pixels), the one depth along its viewing ray, between ``d_min``
     and ``d_max`` metres and where a ball of ``radius`` metres would look about as wide (WIDTH_RATIO), at which another
     camera shows a round outline of the ball's size (FOUND_SHARE) and the disc's own outline is round at that size too
     (OWN_SHARE), whose core is in the target's colour there (``in_range``: each camera's range mask, uint8 0/1, on a grid
     a whole number of times coarser than its ``images``), and that ``judge`` (a point, 3) does not call a thing: two
     views agree on any real thing, and a knob on a door or a pale square on a poster is round in both. Both discs are
-    given, the seen one at the ball's size; and the balls' centres (K x 3)."""
-    found: list[list[np.ndarray]] = [[] for _ in cameras]
-    points: list[np.ndarray] = []
+    given, the seen one at the ball's size."""
+    finds: list[Find] = []
     for i, cam in enumerate(cameras):
         for u, v, width in np.asarray(discs[i], float).reshape(-1, 3):
             if width < FIND_MIN_PX / WIDTH_RATIO:
@@ -144,24 +161,20 @@ def buried_partners(
                     continue
                 hit = _partner(images[i], images[j], cam, other, in_range[j], origin, direction, near / z1, far / z1, (u, v), radius)
                 if hit is not None and not (judge is not None and judge(hit[2])):
-                    found[i].append(np.array([u, v, hit[0]]))
-                    found[j].append(hit[1])
-                    points.append(hit[2])
-    return [np.array(f).reshape(-1, 3) for f in found], np.array(points).reshape(-1, 3)
+                    finds.append(Find(hit[2], ((i, np.array([u, v, hit[0]])), (j, hit[1]))))
+    return finds
 
 
 def held_discs(
     points: np.ndarray, images: Sequence[np.ndarray], cameras: Sequence[Camera], in_range: Sequence[np.ndarray], radius: float
-) -> tuple[list[np.ndarray], np.ndarray]:
-    """Per camera, the discs (K x 3: u, v, r in its pixels) of balls tracked at ``points`` (P x 3) found again as
+) -> list[Find]:
+    """The balls tracked at ``points`` (P x 3) found again (Find) as
     buried_partners finds them, from a view that shows a round outline of their size near where they project (_centred)
     and within HELD_RANGE of their distance along its ray: a ball found by its outline stays found, whatever the colour
     model since learnt of it (hue_wall seed 3051: once its track had taught the model its colours, the wall behind it
     took them too, and its disc was no seed of its own); and where it rolls away, its depth follows it (white_ball tune
-    seed 145: discs drawn where the track was held it there while the ball rolled 11 cm away from the cameras). And
-    the centres found (K x 3)."""
-    found: list[list[np.ndarray]] = [[] for _ in cameras]
-    held: list[np.ndarray] = []
+    seed 145: discs drawn where the track was held it there while the ball rolled 11 cm away from the cameras)."""
+    finds: list[Find] = []
     for point in np.asarray(points, float).reshape(-1, 3):
         shown = []  # (share, view, centre) of each view where the ball's outline is round enough
         for j, (cam, image) in enumerate(zip(cameras, images)):
@@ -184,12 +197,9 @@ def held_discs(
             ]
             hits = [(j, hit) for j, hit in hits if hit is not None]
             if hits:
-                found[i].append(np.array([u, v, hits[0][1][0]]))
-                for j, hit in hits:
-                    found[j].append(hit[1])
-                held.append(hits[0][1][2])
+                finds.append(Find(hits[0][1][2], ((i, np.array([u, v, hits[0][1][0]])), *((j, hit[1]) for j, hit in hits))))
                 break
-    return [np.array(f).reshape(-1, 3) for f in found], np.array(held).reshape(-1, 3)
+    return finds
 
 
 def _centred(image: np.ndarray, u: float, v: float, width: float) -> tuple[float, float, float]:
@@ -257,8 +267,10 @@ BURIED_MOST = 6
 # ... that no other camera shows as the same ball: a seed there within PAIR_PX pixels (and a share of their radii) of the
 # point they triangulate to (stereo_patches.same_ball).
 PAIR_PX = 2.0
-# A confirmed track within HELD_GAP ball radii of a ball found so in the frame before is held (held_discs) while it is still
+# A ball found is kept only where one was found within HELD_GAP ball radii in the RECENT frames before, and a confirmed
+# track that near is held (held_discs) while it is still.
 HELD_GAP = 2.0
+RECENT = 3
 # marked: the half-side of the box, in ball radii, whose ring round a ball found so is taken out of the range
 # (ball_shape.OUTER: the ring the likelihood reads), where RING_BURIED or more of that ring is in the range
 RING = 1.8
@@ -267,13 +279,13 @@ RING_BURIED = 0.25
 
 class OutlineFinder:
     """One target's balls that one view buries in their colour, found by their outlines (buried_partners, held_discs),
-    frame after frame: where it looks, and the balls it found the frame before (a track there is held)."""
+    frame after frame: where it looks, and the balls it found the frames before (a track there is held)."""
 
     def __init__(self, cameras: Sequence[Camera], scales: Sequence[int], target, settings):
         self.cameras, self.scales, self.target = list(cameras), list(scales), target
         self.d_min, self.d_max = settings.d_min, settings.d_max
         self.blob_method, self.min_blob_area = settings.blob_method, settings.min_blob_area
-        self.found = np.zeros((0, 3))  # the balls' centres found the frame before
+        self.recent: list[np.ndarray] = []  # the balls' centres found in each of the RECENT frames before
 
     def __call__(
         self,
@@ -285,29 +297,26 @@ class OutlineFinder:
         judge: Callable[[np.ndarray], bool] | None = None,
     ) -> list[np.ndarray]:
         """Per camera, the discs (K x 3: u, v, r in image pixels) of the balls found this frame: from the still seeds of
-        ``views`` (and, for a coloured target, the still round blobs of its range ``in_range``) that no other camera
-        shows as the same ball, and from the confirmed tracks (``tracked``, P x 3) at balls found so the frame before.
+        ``views`` that no other camera shows as the same ball, and from the confirmed tracks (``tracked``, P x 3) at balls found so the frames before;
+        only where one was found the RECENT frames before.
         ``foregrounds``: each camera's (motion.py, on the background's grid); ``judge`` as buried_partners takes it."""
         t = self.target
         seeds = [_seed_discs(view, k) for view, k in zip(views, self.scales)]
         discs = [self._unpartnered(i, d, seeds, fg) for i, (d, fg) in enumerate(zip(seeds, foregrounds))]
-        if not t.any_hue:  # and the round blobs of its range: where the room holds the ball's colour, the colour model
-            # may leave a speckle of a ball before something else (hue_wall seed 3000), whose disc in the range is clean
-            # (a white or grey target's range is the room's walls: its seeds are its shading's patches)
-            for i, (mask, fg) in enumerate(zip(in_range, foregrounds)):
-                ranged = _new_discs(self._range_discs(i, mask, fg), seeds[i])
-                discs[i] = np.vstack([discs[i], self._unpartnered(i, ranged, seeds, fg)])
-        before, self.found = self.found, np.zeros((0, 3))
+        before = np.vstack([np.zeros((0, 3)), *self.recent])
+        self.recent = self.recent[1 - RECENT :] if RECENT > 1 else []
         near = [len(before) > 0 and np.linalg.norm(before - c, axis=1).min() < HELD_GAP * t.radius for c in tracked]
         still = tracked[[n and self._still_in_every_view(c, foregrounds) for n, c in zip(near, tracked)]].reshape(-1, 3)
         if sum(len(d) for d in discs) == 0 and not len(still):
+            self.recent.append(np.zeros((0, 3)))
             return [np.zeros((0, 3)) for _ in self.cameras]
-        found, points = buried_partners(discs, images, self.cameras, in_range, t.radius, self.d_min, self.d_max, judge)
-        if len(still):  # a ball found so stays found
-            held, kept = held_discs(still, images, self.cameras, in_range, t.radius)
-            found, points = [np.vstack([a, b]) for a, b in zip(found, held)], np.vstack([points, kept])
-        self.found = points
-        return found
+        finds = buried_partners(discs, images, self.cameras, in_range, t.radius, self.d_min, self.d_max, judge)
+        finds += held_discs(still, images, self.cameras, in_range, t.radius) if len(still) else []  # a ball found so stays found
+        self.recent.append(np.array([f.point for f in finds]).reshape(-1, 3))
+        # a ball at rest is found frame after frame (most frames): one found in no frame of the RECENT before is a fluke
+        # of clutter (a shelf of books: hue_wall tune seed 84, finds in single frames that seeded a false track for 37 frames)
+        again = [f for f in finds if len(before) and np.linalg.norm(before - f.point, axis=1).min() < HELD_GAP * t.radius]
+        return per_camera(again, len(self.cameras))
 
     def _unpartnered(self, i: int, discs: np.ndarray, seeds: list, foreground: np.ndarray | None) -> np.ndarray:
         """The ``discs`` of camera i (M x 3, image pixels) that do not move (``foreground``: camera i's) and that no other
@@ -322,20 +331,6 @@ class OutlineFinder:
             ok, _ = same_ball(cams[i], cams[j], di[:, :2], di[:, 2], dj[:, :2], dj[:, 2], t.radius, self.d_min, self.d_max, PAIR_PX)
             discs = discs[~np.isin(np.arange(len(discs)), a[ok])]
         return discs[np.argsort(-discs[:, 2], kind="stable")[:BURIED_MOST]]
-
-    def _range_discs(self, j: int, in_range: np.ndarray, foreground: np.ndarray | None) -> np.ndarray:
-        """The blobs of camera j's range mask (on its evidence grid) that could be a ball (blobs.ball_like), as discs (M x 3:
-        centre and the radius of the ball each would be, image pixels); none where fewer of its pixels are still than a
-        ball at d_max would cover (pendulum4: every pixel of the balls' colour moves, and nothing is labelled)."""
-        k, t = self.scales[j], self.target
-        focal = self.cameras[j].focal_px / k  # the evidence grid's
-        if foreground is not None:
-            half = in_range[: 2 * foreground.shape[0] : 2, : 2 * foreground.shape[1] : 2]  # on the background's grid
-            if cv2.countNonZero(cv2.subtract(half, foreground)) < np.pi * (focal * t.radius / self.d_max / SCALE) ** 2:
-                return np.zeros((0, 3))
-        blobs = find_blobs(in_range, self.blob_method, max(1, round(self.min_blob_area / (k * k))))
-        like = ball_like(blobs, focal, t.radius, self.d_min, self.d_max)
-        return np.column_stack([blobs.centres[like] * k, blobs.ball_radii()[like] * k]).reshape(-1, 3)
 
     def _still_in_every_view(self, point: np.ndarray, foregrounds: Sequence[np.ndarray | None]) -> bool:
         """Does a ball at ``point`` move in no view (its disc under STILL_SHARE in each camera's foreground)?"""
@@ -372,14 +367,6 @@ def _seed_discs(view: CameraEvidence, k: int) -> np.ndarray:
     seeds = view.proposal_seeds()
     widths = seeds.widths if seeds.widths is not None else seeds.radii
     return np.column_stack([seeds.centres * k, widths * k]).reshape(-1, 3)
-
-
-def _new_discs(discs: np.ndarray, held: np.ndarray) -> np.ndarray:
-    """The ``discs`` whose centres lie in none of the ``held`` discs (both M x 3: centre and radius)."""
-    if not len(discs) or not len(held):
-        return discs
-    gaps = np.linalg.norm(discs[:, None, :2] - held[None, :, :2], axis=2)
-    return discs[~(gaps <= held[None, :, 2]).any(axis=1)]
 
 
 def _still(discs: np.ndarray, foreground: np.ndarray | None, k: int) -> np.ndarray:

@@ -102,8 +102,11 @@ class Tracker:
         # where the surface test can tell a pair that is a patch of what it is seen on
         self._pairs_shading = bool(self.surfaces) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
         # A still disc is looked for in the other views by its outline (evidence/outlines.py); still: with motion only
-        self._outlines = s.outlines and s.motion and len(rig.cameras) > 1
-        self._outline_finders = {t.name: OutlineFinder(rig.cameras, self.scales, t, s) for t in config.targets} if self._outlines else {}
+        # white or grey targets only: for a coloured one, a ball of its colour larger than it (static_props seeds 3003 and
+        # 3016, never tuned on: big balls on stands) showed round outlines of its size in both views at one depth, its
+        # highlight's or its limb's, and held false tracks for 50-77 frames
+        outlined = [t for t in config.targets if t.any_hue] if s.outlines and s.motion and len(rig.cameras) > 1 else []
+        self._outline_finders = {t.name: OutlineFinder(rig.cameras, self.scales, t, s) for t in outlined}
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="evidence") if workers > 1 else _InThisThread()
 
@@ -178,7 +181,7 @@ class Tracker:
             per_camera = list(
                 self._pool.map(self._camera_evidence, range(n), pair.images, [held] * n, [confirmed] * n, colours or [None] * n)
             )
-        if self._outlines:  # a ball at rest that one view buries in its colour, found by its outline in another
+        if self._outline_finders:  # a ball at rest that one view buries in its colour, found by its outline in another
             self._find_buried(per_camera, pair.images, confirmed, now)
         cmasks = [cm for cm, _, _, _ in per_camera]
         views = {t.name: tuple(v[t.name] for _, v, _, _ in per_camera) for t in self.config.targets}
@@ -310,7 +313,7 @@ class Tracker:
         """Per target, the balls that one view buries in their colour, found by their outlines (evidence/outlines.py), count
         as moving in the views that show them, with the ring round them out of the range where it is of their colour:
         those views' evidence is made again with them (``per_camera``'s views, in place)."""
-        for t in self.config.targets:
+        for t in (t for t in self.config.targets if t.name in self._outline_finders):
             views = [v[t.name] for _, v, _, _ in per_camera]
             in_range = [cm.masks[t.name] for cm, _, _, _ in per_camera]
             foregrounds = [motion.foreground for _, _, _, motion in per_camera]
