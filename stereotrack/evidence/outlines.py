@@ -5,12 +5,14 @@ ball's size has an edge crossing it radially all round: a ball's rim does,
 wherever what lies behind it differs from it; a square's sides do in about
 half the directions (objects/surface.py drops still things by it).
 
-A ball at rest before a wall of its hue (or a white ball before a white
-wall) can show in one view as a disc of its colour and in the other inside a
-region of that colour: its ring is full there, so no particle on it scores,
-nothing moves, and the colour model, which learns the wall, wipes it out. It
-was never found (white_ball tune seeds 34 and 103, hue_wall 16 and 3051: each
-a ball at rest for the whole scene). Its outline still shows in that view:
+A white ball at rest before a white wall (or a ball before a wall of its hue)
+can show in one view as a patch or disc of its own and in the other inside a
+region of its colour: its ring is full there, so no particle on it scores,
+nothing moves, and its shading's patch joins what stands beside it. It was
+never found (white_ball tune seeds 34 and 103; hue_wall 16 and 3051: each a
+ball at rest for the whole scene). The tracker searches for white or grey
+targets only: a coloured target's larger balls showed round outlines of its
+size too (pipeline/tracker.py). Its outline still shows in that view:
 along the viewing ray of the disc, at the depths where the disc is about as
 wide as the ball, the outline in the other view is round at one depth only,
 the ball's (0.8-1.0 there, at most 0.6 a few pixels of disparity away).

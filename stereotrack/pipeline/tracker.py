@@ -101,10 +101,10 @@ class Tracker:
         # A white or grey target's shading is compared between cameras (stereo_patches.py) before its evidence is made,
         # where the surface test can tell a pair that is a patch of what it is seen on
         self._pairs_shading = bool(self.surfaces) and s.shading and len(rig.cameras) > 1 and any(t.any_hue for t in config.targets)
-        # A still disc is looked for in the other views by its outline (evidence/outlines.py); still: with motion only
-        # white or grey targets only: for a coloured one, a ball of its colour larger than it (static_props seeds 3003 and
-        # 3016, never tuned on: big balls on stands) showed round outlines of its size in both views at one depth, its
-        # highlight's or its limb's, and held false tracks for 50-77 frames
+        # A white or grey target's still patch is looked for in the other views by its outline (evidence/outlines.py; with
+        # motion only: a patch is still where nothing moves). Not a coloured target's: a ball of its colour larger than it
+        # (static_props seeds 3003 and 3016, never tuned on: big balls on stands) showed round outlines of its size in
+        # both views at one depth, its highlight's or its limb's, and held false tracks for 49-77 frames.
         outlined = [t for t in config.targets if t.any_hue] if s.outlines and s.motion and len(rig.cameras) > 1 else []
         self._outline_finders = {t.name: OutlineFinder(rig.cameras, self.scales, t, s) for t in outlined}
         workers = min(len(rig.cameras), s.threads or os.cpu_count() or 1)
