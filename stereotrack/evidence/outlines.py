@@ -26,6 +26,7 @@ one: a knob on a door is round in both views too.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -286,8 +287,7 @@ class OutlineFinder:
     def __init__(self, cameras: Sequence[Camera], scales: Sequence[int], target, settings):
         self.cameras, self.scales, self.target = list(cameras), list(scales), target
         self.d_min, self.d_max = settings.d_min, settings.d_max
-        self.blob_method, self.min_blob_area = settings.blob_method, settings.min_blob_area
-        self.recent: list[np.ndarray] = []  # the balls' centres found in each of the RECENT frames before
+        self.recent: deque[np.ndarray] = deque(maxlen=RECENT)  # the balls' centres found in each of the RECENT frames before
 
     def __call__(
         self,
@@ -299,14 +299,13 @@ class OutlineFinder:
         judge: Callable[[np.ndarray], bool] | None = None,
     ) -> list[np.ndarray]:
         """Per camera, the discs (K x 3: u, v, r in image pixels) of the balls found this frame: from the still seeds of
-        ``views`` that no other camera shows as the same ball, and from the confirmed tracks (``tracked``, P x 3) at balls found so the frames before;
-        only where one was found the RECENT frames before.
-        ``foregrounds``: each camera's (motion.py, on the background's grid); ``judge`` as buried_partners takes it."""
+        ``views`` that no other camera shows as the same ball, and from the confirmed tracks (``tracked``, P x 3) at balls
+        found so the frames before; only where one was found in the RECENT frames before. ``foregrounds``: each camera's
+        (motion.py, on the background's grid); ``judge`` as buried_partners takes it."""
         t = self.target
         seeds = [_seed_discs(view, k) for view, k in zip(views, self.scales)]
         discs = [self._unpartnered(i, d, seeds, fg) for i, (d, fg) in enumerate(zip(seeds, foregrounds))]
         before = np.vstack([np.zeros((0, 3)), *self.recent])
-        self.recent = self.recent[1 - RECENT :] if RECENT > 1 else []
         near = [len(before) > 0 and np.linalg.norm(before - c, axis=1).min() < HELD_GAP * t.radius for c in tracked]
         still = tracked[[n and self._still_in_every_view(c, foregrounds) for n, c in zip(near, tracked)]].reshape(-1, 3)
         if sum(len(d) for d in discs) == 0 and not len(still):
@@ -354,12 +353,14 @@ def marked(moving: np.ndarray, in_range: np.ndarray, discs: np.ndarray, k: int) 
     for u, v, r in discs:  # evidence pixel e is image pixel k e; the background's cell c, evidence pixels 2c and 2c + 1
         centre = (int(round(16 * (u / k - 0.5) / SCALE)), int(round(16 * (v / k - 0.5) / SCALE)))  # 4 bits of fraction
         cv2.circle(moving, centre, max(int(round(16 * r / (k * SCALE))), 8), 1, -1, cv2.LINE_8, 4)
-        ring = np.zeros_like(carved)
         x0, y0 = (max(int(round((c - RING * r) / k)), 0) for c in (u, v))
-        ring[y0 : int(round((v + RING * r) / k)) + 1, x0 : int(round((u + RING * r) / k)) + 1] = 1
-        cv2.circle(ring, (int(round(16 * u / k)), int(round(16 * v / k))), int(round(16 * r / k)), 0, -1, cv2.LINE_8, 4)
-        if cv2.countNonZero(cv2.bitwise_and(ring, carved)) >= RING_BURIED * cv2.countNonZero(ring):
-            carved[ring > 0] = 0
+        box = carved[y0 : int(round((v + RING * r) / k)) + 1, x0 : int(round((u + RING * r) / k)) + 1]  # a view: carved in place
+        if not box.size:
+            continue
+        ring = np.ones_like(box)
+        cv2.circle(ring, (int(round(16 * u / k)) - 16 * x0, int(round(16 * v / k)) - 16 * y0), int(round(16 * r / k)), 0, -1, cv2.LINE_8, 4)
+        if cv2.countNonZero(cv2.bitwise_and(ring, box)) >= RING_BURIED * cv2.countNonZero(ring):
+            box[ring > 0] = 0
     return moving, carved
 
 
