@@ -162,7 +162,10 @@ class TrackerSettings:
     particle_velocity: bool = setting(True, "particles near a track drift with its velocity (else the paper's pure random walk)")
     exclusion: bool = setting(True, "a particle following one track dies inside another tracked ball (seed 000's blocking)")
     occlusion: bool = setting(
-        True, "a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it"
+        True,
+        "a camera whose view of a particle (or of a ball's blob) is blocked by a tracked ball of another colour does not judge it "
+        "(not by one overlapping a tracked ball of its own: two balls cannot overlap, so that is one thing two targets see, "
+        "such as an orange ball's white highlight)",
     )
     refine: bool = setting(
         True,

@@ -151,6 +151,18 @@ class TrackedBalls:
             return self
         return self.where(np.array([t != target for t in self.targets], dtype=bool))
 
+    def occluding(self, target: str) -> TrackedBalls:
+        """The balls of every other target that may hide ``target``'s: not those that overlap one of its own. Two solid
+        balls cannot overlap, so a ball of another target that does is no ball in front of it but the same thing seen as
+        both (an orange ball's white highlight, tracked by a white target): taken as one, it hid the orange ball from a
+        camera, and ghosts along its rays in the other camera went unchallenged (hue_wall tune seed 2 with a white
+        target added: the orange ball's MOTA 1.000 alone, -0.100 so, 1.000 without occlusion)."""
+        others, own = self.others(target), self.of(target)
+        if not len(others) or not len(own) or others is own:
+            return others
+        gaps = np.linalg.norm(others.centres[:, None] - own.centres[None], axis=2)
+        return others.where(~(gaps < others.radii[:, None] + own.radii[None]).any(axis=1))
+
 
 @dataclass(frozen=True, eq=False)
 class Rays:

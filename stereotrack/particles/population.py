@@ -113,7 +113,7 @@ class Population:
         positions = np.vstack([seq, abd])
         # Only a ball of another colour can hide a particle unfairly: one of the same colour fills
         # the window anyway, and the likelihood already scores that view as a match.
-        lik = self.likelihood(positions, views, balls.others(self.target.name) if balls is not None else None)
+        lik = self.likelihood(positions, views, balls.occluding(self.target.name) if balls is not None else None)
         if balls is not None and s.exclusion and len(balls) and n_seq and self.state is not None and self.state.owners is not None:
             # Two balls cannot share space: a particle following one track dies inside another's ball.
             lik[:n_seq] = np.where(intruders(seq, seq_owner, balls.centres, balls.radii.astype(float), balls.track_ids), 0.0, lik[:n_seq])

@@ -204,7 +204,7 @@ class Tracker:
             candidates = [
                 Object3D(t.name, cl.means[k], cl.covariances[k], float(cl.masses[k]), int(cl.counts[k])) for k in range(len(cl.means))
             ]
-            occluders = balls.others(t.name) if s.occlusion else None
+            occluders = balls.occluding(t.name) if s.occlusion else None
             kept_objects, into = explain(candidates, views[t.name], self.explain_settings[t.name], balls.of(t.name), occluders)
             # Nothing is still in a background's first frame (it is the background): nothing is judged there
             if t.name in self.surfaces and all(bg.compared for bg in self.backgrounds):
