@@ -82,8 +82,9 @@ def main() -> int:
     folders = [scene(args.category, s, args.cache) for s in seeds]
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.jobs) as pool:
         for root in roots:
-            alone = np.array(list(pool.map(lambda f: coloured_mota(root, f, False, Path(tmp)), folders)))
-            paired = np.array(list(pool.map(lambda f: coloured_mota(root, f, True, Path(tmp)), folders)))
+            n = len(folders)
+            alone = np.array(list(pool.map(coloured_mota, [root] * n, folders, [False] * n, [Path(tmp)] * n)))
+            paired = np.array(list(pool.map(coloured_mota, [root] * n, folders, [True] * n, [Path(tmp)] * n)))
             print(f"{root} ({args.category} seeds {seeds[0]}-{seeds[-1]}):")
             print(f"  alone:             {summary(alone)}")
             print(f"  with white target: {summary(paired)}")
