@@ -158,7 +158,7 @@ class TrackedBalls:
         camera, and ghosts along its rays in the other camera went unchallenged (hue_wall tune seed 2 with a white
         target added: the orange ball's MOTA 1.000 alone, -0.100 so, 1.000 without occlusion)."""
         others, own = self.others(target), self.of(target)
-        if not len(others) or not len(own) or others is own:
+        if not len(others) or not len(own):
             return others
         gaps = np.linalg.norm(others.centres[:, None] - own.centres[None], axis=2)
         return others.where(~(gaps < others.radii[:, None] + own.radii[None]).any(axis=1))
