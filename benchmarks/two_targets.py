@@ -66,7 +66,13 @@ def coloured_mota(root: Path, folder: Path, with_white: bool, work: Path) -> flo
 
 
 def summary(motas: np.ndarray) -> str:
-    return f"sum {motas.sum():.2f}, median {np.median(motas):.3f}, worst {motas.min():.3f}, under 0.85: {int((motas < 0.85).sum())}"
+    """Over the scenes with a ball two cameras see (MOTA is nan without one: no tracker's failure)."""
+    scored = motas[np.isfinite(motas)]
+    unscored = f" ({len(motas) - len(scored)} scenes with no ball two cameras see)" if len(scored) < len(motas) else ""
+    return (
+        f"sum {scored.sum():.2f}, median {np.median(scored):.3f}, worst {scored.min():.3f}, "
+        f"under 0.85: {int((scored < 0.85).sum())}{unscored}"
+    )
 
 
 def main() -> int:
@@ -88,7 +94,7 @@ def main() -> int:
             print(f"{root} ({args.category} seeds {seeds[0]}-{seeds[-1]}):")
             print(f"  alone:             {summary(alone)}")
             print(f"  with white target: {summary(paired)}")
-            worst = np.argsort(paired - alone)[:5]
+            worst = np.argsort(np.nan_to_num(paired - alone))[:5]
             print("  most changed: " + ", ".join(f"{seeds[k]} {alone[k]:.3f} -> {paired[k]:.3f}" for k in worst))
     return 0
 
