@@ -42,13 +42,14 @@ def evidence(rig: Rig, masks) -> tuple[CameraEvidence, ...]:
     return tuple(CameraEvidence.from_mask(cam, m) for cam, m in zip(rig.cameras, masks))
 
 
-def balls_at(centres, target: str = "pink", first_id: int = 1, radius: float = RADIUS, confirmed: bool = True):
-    """Tracked balls of one target at these centres."""
+def balls_at(centres, target: str | tuple[str, ...] = "pink", first_id: int = 1, radius: float = RADIUS, confirmed: bool = True):
+    """Tracked balls at these centres, of one target (or of ``target``'s names, one a ball)."""
     from stereotrack.results import TrackedBalls
 
     centres = np.asarray(centres, float).reshape(-1, 3)
     n = len(centres)
-    return TrackedBalls(centres, np.full(n, radius), np.arange(first_id, first_id + n), (target,) * n, np.full(n, confirmed))
+    targets = tuple(target) if isinstance(target, tuple) else (target,) * n
+    return TrackedBalls(centres, np.full(n, radius), np.arange(first_id, first_id + n), targets, np.full(n, confirmed))
 
 
 def lit_ball(origins: np.ndarray, directions: np.ndarray, centre, radius: float = RADIUS) -> tuple[np.ndarray, np.ndarray]:

@@ -112,7 +112,8 @@ class Population:
         abd = self.proposal(views, n_abd, mine, rng) if n_abd else np.zeros((0, 3))
         positions = np.vstack([seq, abd])
         # Only a ball of another colour can hide a particle unfairly: one of the same colour fills
-        # the window anyway, and the likelihood already scores that view as a match.
+        # the window anyway, and the likelihood already scores that view as a match (and one overlapping
+        # a ball of this colour is that ball seen by another target: TrackedBalls.occluding).
         lik = self.likelihood(positions, views, balls.occluding(self.target.name) if balls is not None else None)
         if balls is not None and s.exclusion and len(balls) and n_seq and self.state is not None and self.state.owners is not None:
             # Two balls cannot share space: a particle following one track dies inside another's ball.

@@ -7,7 +7,7 @@ import math
 import cv2
 import numpy as np
 import pytest
-from scene_helpers import RADIUS, default_rig, disc_masks, evidence
+from scene_helpers import RADIUS, balls_at, default_rig, disc_masks, evidence
 
 from stereotrack.particles.likelihoods.ball_shape import BallShape
 from stereotrack.particles.likelihoods.colour_window import ColourWindow
@@ -266,8 +266,6 @@ def test_a_ball_of_another_target_overlapping_the_ball_hides_none_of_it():
     orange one, a little nearer one camera; taken as a ball in front, it hid from that camera the depths along the other
     camera's ray behind it, and a ghost there scored as the ball did (hue_wall tune seeds with a white target added:
     false tracks along the rays). TrackedBalls.occluding leaves it out; a ball of another target clear of it still hides."""
-    from stereotrack.results import TrackedBalls
-
     rig = default_rig()
     masks, _ = disc_masks(rig, BALL[None])
     views = evidence(rig, masks)
@@ -277,20 +275,14 @@ def test_a_ball_of_another_target_overlapping_the_ball_hides_none_of_it():
     ray1 = (BALL - cam1.centre) / np.linalg.norm(BALL - cam1.centre)
     ghost = BALL + 0.12 * ray1  # behind the ball on camera 1's ray: in camera 0, in the highlight's shadow
 
-    def balls(*placed):
-        centres = np.array([p for p, _ in placed])
-        return TrackedBalls(
-            centres, np.full(len(placed), RADIUS), np.arange(len(placed)), tuple(t for _, t in placed), np.ones(len(placed), bool)
-        )
-
     highlight = BALL + 0.02 * towards0  # overlaps the orange ball
-    tracked = balls((BALL, "orange"), (highlight, "white"))
+    tracked = balls_at([BALL, highlight], ("orange", "white"))
     as_ball = shape(np.array([BALL, ghost]), views, tracked.others("orange"))  # the highlight taken for a ball in front
     assert as_ball[1] >= as_ball[0]  # the ghost scores as the ball does: camera 0 says nothing of it
     kept = tracked.occluding("orange")
     assert len(kept) == 0
     scores = shape(np.array([BALL, ghost]), views, kept)
     assert scores[1] < 0.25 * scores[0]  # (0.16: in camera 0 its disc still overlaps the ball's a little)
-    clear = balls((BALL, "orange"), (BALL + 0.3 * towards0, "pink"))  # a ball of another colour 30 cm in front: it hides
+    clear = balls_at([BALL, BALL + 0.3 * towards0], ("orange", "pink"))  # a ball of another colour 30 cm in front: it hides
     assert len(clear.occluding("orange")) == 1
-    assert len(balls((BALL, "orange")).occluding("orange")) == 0 and len(balls((highlight, "white")).occluding("orange")) == 1
+    assert len(balls_at([BALL], "orange").occluding("orange")) == 0 and len(balls_at([highlight], "white").occluding("orange")) == 1
