@@ -46,7 +46,7 @@ from ..evidence.blobs import short_streaks
 from ..evidence.colour import box_counts
 from ..evidence.gather import CameraEvidence
 from ..results import Object3D, TrackedBalls
-from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, union_mismatch
+from .discs import PARTIAL_LEAST_SEEN, PARTIAL_MOST_AROUND, RayFit, depth_on_ray, partial_mismatch, same_disc, union_mismatch
 from .kernels import blob_signature
 from .shapes import (
     CENTROID_SIGMA_PX,
@@ -387,7 +387,14 @@ def _paired(swept: list[np.ndarray], partly: list[np.ndarray], blob_ids: np.ndar
 
 
 def _agree(
-    point: np.ndarray, obj: Object3D, cov: np.ndarray, slack: float | None, radius: float, origin: np.ndarray, along_ray: bool = True
+    point: np.ndarray,
+    obj: Object3D,
+    cov: np.ndarray,
+    slack: float | None,
+    radius: float,
+    origin: np.ndarray,
+    along_ray: bool = True,
+    cameras: Sequence = (),
 ) -> bool:
     """Are the triangulated blobs ``point`` (covariance ``cov``) and the particles' mean ``obj`` the same ball? Within
     3 radii; for streaks (``slack`` not None) 3 standard deviations of the triangulation and of the particles more
@@ -409,12 +416,17 @@ def _agree(
         # Farther apart only along the viewing ray, within what the triangulation and the particles claim, where the
         # particles claim no better than three radii there (a far ball's: 7 radii at 12 m, fast_ball tune seed 16; a near
         # ball's particles claiming 2 radii, 3.5 radii off, keep their word: lighting tune seed 6 0.967 -> 0.856 else).
+        # Claiming better, they keep it only where they and the centroids are not one disc in every view (discs.same_disc): a
+        # far ball's particles judge its depth by its size, which its mask understates, and drift far while claiming
+        # 0.1-0.2 m (fast_ball tune seed 1: a handball at 7.3 m, 0.3 m far and on to 0.95 m, its centroids within 2 cm).
         # A white or grey ball's too: its blob is its shading's disc or its moving patch, not only its lit crescent. A
         # ball at rest kept its particles' depth, 0.12-0.17 m near and claiming 0.12 m, while its blobs triangulated to
         # 2 cm (white_ball seed 222: 0.422 -> 1.000; seeds 0-279 +0.94). It was refused this when its blob was the
         # crescent alone (white_ball tune seeds 4 and 16 fell then; they lose 0.02 each now).
-        if not along_ray or ray @ spread @ ray <= (3.0 * radius) ** 2:
+        if not along_ray:
             return False
+        if ray @ spread @ ray <= (3.0 * radius) ** 2:
+            return same_disc(point, obj.position, cameras, radius)
         sigma = float(np.sqrt(max(ray @ (cov + spread) @ ray, 0.0)))
         return bool(across <= 3.0 * radius and abs(along) <= 3.0 * radius + 2.0 * sigma)
     cov = cov + spread
@@ -461,7 +473,7 @@ def _refine_all(merged, kept, blob_ids, log_ratio, hidden, evidence, settings, p
             # or in none): a disc merged with a pale moving patch beside it, its centroid off along the epipolar line
             # (lighting tune seed 61: a warm-up ghost in a streak's colour beside the ball, 9 pixels off, 0.29 m near; 0.939 -> 0.967).
             long = slack is None and any(_long(blobs[j], blob_ids[i, j]) for j in good)
-            if _agree(point, merged[i], cov, slack, settings.radius, origin, along_ray=not long):
+            if _agree(point, merged[i], cov, slack, settings.radius, origin, not long, [cameras[j] for j in good]):
                 out[i] = replace(merged[i], position=point, covariance=cov, swept=slack is not None)
     one_view = [i for i in kept if len(views[i][0]) == 1]
     for i in one_view:
