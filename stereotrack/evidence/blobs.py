@@ -166,14 +166,14 @@ STREAK_ELONGATION = 2.0  # a blob this much longer than wide, ...
 STREAK_FILL = 0.8  # ... that fills its moments' ellipse this much, is a ball swept along a line (a capsule fills it 0.9-1.1)
 
 
-def streaks(areas: np.ndarray, axes: np.ndarray, elongation: float = STREAK_ELONGATION) -> np.ndarray:
+def streaks(areas: np.ndarray, axes: np.ndarray, elongation: float = STREAK_ELONGATION, fill: float = STREAK_FILL) -> np.ndarray:
     """Per blob: a ball smeared into a streak by its motion during the exposure (a filled capsule), whose width, not
     its length, is the ball's. A crescent (a ball partly in range) fills its ellipse about half: not a streak. A ball
     cut by the image's edge is one too (a half disc fills its ellipse): the caller keeps those out."""
     if not len(areas):
         return np.zeros(0, bool)
     b = np.maximum(axes[:, 1], 0.5)
-    return (axes[:, 0] >= elongation * b) & (areas >= STREAK_FILL * np.pi * axes[:, 0] * b)
+    return (axes[:, 0] >= elongation * b) & (areas >= fill * np.pi * axes[:, 0] * b)
 
 
 # A moving blob this much longer than wide (and as full and even as a streak) is a short blur. At 1.3 a far fast ball

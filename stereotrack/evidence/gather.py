@@ -17,7 +17,7 @@ import numpy as np
 from ..camera import Camera
 from ..config import Target
 from .blob_kernels import faint_pixels, pale_cells, streak_candidates
-from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs
+from .blobs import LABEL_SCALE, Blobs, ball_like, find_blobs, streaks
 from .colour import integral_image, range_bounds
 from .coverage import coverage_centres
 from .kernels import evidence_maps, halved_frame, picked_and_halved, row_maxima
@@ -354,7 +354,8 @@ def _kept_streaks(
     blobs = find_blobs(moving, "components", min_blob_area, rows)
     s = blobs.label_scale
     kept = []
-    for k in np.flatnonzero(blobs.swept) if len(blobs) else ():  # only streak-shaped blobs keep pale pixels: look in their boxes
+    shaped = blobs.swept if marks is None or not len(blobs) else _ragged_streaks(blobs)  # (the faint pass's are of cells)
+    for k in np.flatnonzero(shaped) if len(blobs) else ():  # only streak-shaped blobs keep pale pixels: look in their boxes
         x0, y0, x1, y1 = (int(c) * s for c in blobs.boxes[k])
         ys, xs = np.nonzero(moving[y0:y1, x0:x1])
         mine = blobs.label_blob[blobs.labels[(ys + y0) // s, (xs + x0) // s]] == k
@@ -372,6 +373,20 @@ def _kept_streaks(
         if around < pale_share * blobs.areas[k] and np.count_nonzero(paler) >= least:
             kept.append((ys[paler], xs[paler]))
     return kept
+
+
+# A faint streak's pale cells fill this much of their moments' ellipse at least (fast_ball tune seed 35: 0.70-0.79 where a
+# mask's streak must fill 0.8; a square of cells fills 0.95 of its ellipse but is no longer than wide).
+FAINT_FILL = 0.7
+
+
+def _ragged_streaks(blobs: Blobs) -> np.ndarray:
+    """Per blob: shaped like a streak as a faint one's pale pixels are, the background grid's 2 x 2 cells (a ragged
+    capsule): as long as a streak, filling FAINT_FILL of its ellipse, away from the edge; no evenness asked."""
+    h, w = blobs.labels.shape
+    b = blobs.boxes
+    inside = (b[:, 0] > 0) & (b[:, 1] > 0) & (b[:, 2] < w) & (b[:, 3] < h)
+    return streaks(blobs.areas, blobs.axes, fill=FAINT_FILL) & inside
 
 
 # A streak-shaped blob under this share of whose pixels move is still: a rod, a stripe (none move). A ball at the end of
