@@ -139,6 +139,7 @@ class CameraEvidence:
         The maps come from one compiled pass over the range (kernels.evidence_maps), their summed-area tables from OpenCV."""
         in_range = mask
         soft_integral = moving = moving_integral = soft = rows = None
+        faint_streaks = []
         if colour_table is not None or foreground is not None:
             h, w = in_range.shape
             soft = np.zeros((h, w), in_range.dtype) if colour_table is not None else None
@@ -172,11 +173,11 @@ class CameraEvidence:
                 if pale:
                     _streaks_only(moving, in_range, min_blob_area, rows)
                 if faint is not None:
-                    rows = _add_faint_streaks(moving, in_range, faint, range_bounds(motion_range), min_blob_area, rows)
+                    rows, faint_streaks = _add_faint_streaks(moving, in_range, faint, range_bounds(motion_range), min_blob_area, rows)
             if moving is not None:
                 moving_integral = integral_image(moving)
         counted = mask if moving is None else cv2.bitwise_or(mask, moving)
-        blobs = find_blobs(counted, blob_method, min_blob_area, rows)
+        blobs = _as_streaks(find_blobs(counted, blob_method, min_blob_area, rows), faint_streaks)
         origins, directions = camera.rays(blobs.centres)
         still = still_streaks(blobs, moving) if moving is not None else None
         seeds = None
@@ -196,6 +197,20 @@ class CameraEvidence:
                 in_range,
             )
         return cls(camera, mask, blobs, origins, directions, moving, moving_integral, seeds, soft_integral, integral, counted, still, faint)
+
+
+def _as_streaks(blobs: Blobs, pixels: list) -> Blobs:
+    """``blobs`` with those that are a faint streak's pale pixels alone (``pixels``: (ys, xs) per streak, _kept_streaks) as
+    streaks: a ragged capsule of the background grid's cells that _ragged_streaks took for one is one wherever it is read
+    (its width, not its length, is its ball's), though it fills less of its ellipse than a mask's streak must."""
+    if not pixels or blobs.labels is None or blobs.swept is None or blobs.axes is None:
+        return blobs
+    s, swept, widths = blobs.label_scale, blobs.swept.copy(), np.array(blobs.ball_radii(), float)
+    for ys, xs in pixels:
+        k = int(blobs.label_blob[blobs.labels[ys[0] // s, xs[0] // s]])
+        if k >= 0 and blobs.areas[k] <= 1.2 * len(ys):  # (not where it joined a blob of the mask or the moving map)
+            swept[k], widths[k] = True, blobs.axes[k, 1]
+    return replace(blobs, swept=swept, widths=widths)
 
 
 def on_grid(camera: Camera, scale: int) -> Camera:
@@ -285,21 +300,21 @@ def _faint_streaks(in_range, moving, faint: Faint, streak: np.ndarray, rows: np.
     return pale, pale_rows, (cells, cell_rows, cell_cols)
 
 
-def _add_faint_streaks(moving, in_range, faint: Faint, streak: np.ndarray, min_blob_area: int, rows: np.ndarray) -> np.ndarray:
+def _add_faint_streaks(moving, in_range, faint: Faint, streak: np.ndarray, min_blob_area: int, rows: np.ndarray) -> tuple:
     """Adds to ``moving``, in place, the pale pixels of new faint streaks (_faint_streaks, _kept_streaks); returns the
-    rows that may hold a pixel of any map now (``rows`` when none was added)."""
+    rows that may hold a pixel of any map now (``rows`` when none was added) and the streaks' pixels (ys, xs) added."""
     h, w = in_range.shape
     least = int(np.ceil(FAINT_MIN_CELLS * w * h / faint.cells.size))  # pixels per cell of the background's grid
     more = _faint_streaks(in_range, moving, faint, streak, rows, least)
     if more is None:
-        return rows
+        return rows, []
     pale, pale_rows, marks = more
     if not _could_keep(pale, in_range, min_blob_area, pale_rows, moving, marks, least):
-        return rows  # (pendulum4: a faint halo around each moving ball, in every frame, none mostly new)
+        return rows, []  # (pendulum4: a faint halo around each moving ball, in every frame, none mostly new)
     kept = _kept_streaks(pale, in_range, min_blob_area, pale_rows, cv2.bitwise_or(moving, in_range), marks, least)
     for ys, xs in kept:
         moving[ys, xs] = 1
-    return pale_rows if kept else rows
+    return (pale_rows if kept else rows), kept
 
 
 def words(image: np.ndarray) -> np.ndarray:

@@ -359,3 +359,22 @@ def test_a_faint_streaks_ragged_cells_are_a_streak_and_a_square_of_them_is_not()
     kept = _faint_cells_kept(RAGGED)
     assert len(kept) == 1 and len(kept[0][0]) == 4 * len(RAGGED)
     assert _faint_cells_kept([(r, c) for r in range(4) for c in range(4)]) == []
+
+
+def test_a_faint_streak_kept_by_its_ragged_cells_is_a_streak_in_the_blobs_read_later():
+    """The blob finder judges the kept pixels again, by a mask's streak test: without being told, it takes them for a disc
+    of half their length (the particles' ball half as deep, no streak for explain-away to triangulate). Told, the blob is
+    a streak as wide as its cells, and a blob its pixels joined is not made one."""
+    from stereotrack.evidence.blobs import find_blobs
+    from stereotrack.evidence.gather import _as_streaks
+
+    kept = _faint_cells_kept(RAGGED)
+    pale = np.zeros((480, 640), np.uint8)
+    pale[kept[0]] = 1
+    blobs = find_blobs(pale, "components", 6)
+    assert len(blobs) == 1 and not blobs.swept[0] and blobs.ball_radii()[0] > 6  # half its length
+    told = _as_streaks(blobs, kept)
+    assert told.swept[0] and told.ball_radii()[0] < 2.5
+    cv2.circle(pale, (int(blobs.centres[0, 0]), int(blobs.centres[0, 1]) + 6), 6, 1, -1)  # a disc joined to it
+    joined = find_blobs(pale, "components", 6)
+    assert len(joined) == 1 and not _as_streaks(joined, kept).swept[0]
