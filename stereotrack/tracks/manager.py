@@ -43,16 +43,12 @@ from ..config import TrackSettings
 from ..results import Object3D, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import FAST_FLIGHT, entering, fast_flight_model, motion_model, moved_across_sight, robust_noise
+from .motion import FAST_FLIGHT, FIRST_HIT_SIGMAS, entering, fast_flight_model, flies_across, motion_model, moved_across_sight, robust_noise
 from .sight import in_view, on_balls
 from .smoothing import between_hits, hindsight_fills
 from .state import TrackState
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
-# A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
-# |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
-# Counted so (variance x 4), the smoother revises it from later hits: fast_ball tune median 0.950 -> 0.964 (x 2-100: 0.958-0.963).
-FIRST_HIT_SIGMAS = 2.0
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
 SWEPT_CONFIRM_RADII = 2.0
@@ -99,6 +95,7 @@ class TrackManager:
         ``radius``: each target's ball radius (metres), for ``TrackEstimate.settled``; without it a track settles by age only."""
         self.settings = settings or TrackSettings()
         self.rig = rig
+        self._centres = None if rig is None else [cam.centre for cam in rig.cameras]
         self.radius = dict(radius or {})
         up = self.settings.up
         self.gravity = None if up is None else -self.settings.g * np.asarray(up, float) / np.linalg.norm(up)
@@ -376,7 +373,12 @@ class TrackManager:
 
     def _correct(self, tr: TrackState, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         z = np.ascontiguousarray(z, dtype=float)
-        tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
+        # Its second object in its gate, gone across the view as only a flying ball goes: it starts at the two objects'
+        # velocity (``_start_moving``), not from rest held back by init_speed_sigma (motion.flies_across).
+        if tr.hits == 1 and self._centres and flies_across(tr.x[:3], z, time - tr.last_hit, self._centres):
+            self._start_moving(tr, tr.x[:3].copy(), z, R, time - tr.last_hit)
+        else:
+            tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
         self._hit(tr, z, R, obj, time)
 
     def _two_point(
@@ -532,8 +534,7 @@ class TrackManager:
         vague along its rays and strays farther than that (hue_wall tune seed 18: a book's end 2.8 m off every ball).
         Never without the target's radius."""
         start = position if tr.first_shown is None else tr.first_shown
-        centres = None if self.rig is None else [cam.centre for cam in self.rig.cameras]
-        return moved_across_sight(start, position, TRAVEL * self.radius.get(tr.target, np.inf), centres)
+        return moved_across_sight(start, position, TRAVEL * self.radius.get(tr.target, np.inf), self._centres)
 
     def _smoothed(self, tr: TrackState, time: float) -> tuple:
         """Keep this frame's state; give each frame smooth_time old by now smoothed with the later ones (FilterHistory.

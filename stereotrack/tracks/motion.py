@@ -36,6 +36,10 @@ def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> t
 # no gravity until the free-flight test): drag 0.012 with noise 9 +3.75 (median 0.950 -> 0.964), 3 +2.79, 30 +0.30;
 # noise 9 with drag 0.006 +1.02, 0.02 +1.25, none -0.80. Seeds 160-319, never looked at: +2.37 (median 0.966 -> 0.976).
 FAST_FLIGHT = 8.0
+# A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
+# |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
+# Counted so (variance x 4), the smoother revises it from later hits: fast_ball tune median 0.950 -> 0.964 (x 2-100: 0.958-0.963).
+FIRST_HIT_SIGMAS = 2.0
 
 
 def fast_flight_model(dt: float, velocity: np.ndarray, accel_noise: float, gravity: np.ndarray | None, drag: float) -> tuple:
@@ -85,6 +89,14 @@ def robust_noise(predicted: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndar
     nu = z - predicted  # the innovation, its covariance S = P + R
     d2 = float(nu @ np.linalg.solve(P + R, nu))
     return R * max(1.0, d2 / ROBUST_SIGMAS**2)
+
+
+def flies_across(first: np.ndarray, position: np.ndarray, dt: float, centres: list) -> bool:
+    """Has a thing gone from ``first`` to ``position`` in ``dt`` seconds faster than FAST_FLIGHT across some camera's line
+    of sight (``centres``: each camera's centre)? Along it a far still thing's depth strays as far from frame to frame.
+    A track's second object that does (fast_ball tune seed 74: a ball at 12 m/s stepped from rest to 4.7 m/s, claiming
+    1.7 m/s, and ran 0.2-0.3 m off for 9 frames) starts it at the two objects' velocity."""
+    return dt > 1e-6 and moved_across_sight(first, position, FAST_FLIGHT * dt, centres)
 
 
 def moved_across_sight(start: np.ndarray, position: np.ndarray, limit: float, centres: list | None) -> bool:
