@@ -207,7 +207,9 @@ def _as_streaks(blobs: Blobs, pixels: list) -> Blobs:
         return blobs
     s, swept, widths = blobs.label_scale, blobs.swept.copy(), np.array(blobs.ball_radii(), float)
     for ys, xs in pixels:
-        k = int(blobs.label_blob[blobs.labels[ys[0] // s, xs[0] // s]])
+        ks = blobs.label_blob[blobs.labels[ys // s, xs // s]]  # (the label grid reads every s-th pixel: some read none)
+        ks = ks[ks >= 0]
+        k = int(np.bincount(ks).argmax()) if len(ks) else -1
         if k >= 0 and blobs.areas[k] <= 1.2 * len(ys):  # (not where it joined a blob of the mask or the moving map)
             swept[k], widths[k] = True, blobs.axes[k, 1]
     return replace(blobs, swept=swept, widths=widths)

@@ -375,6 +375,10 @@ def test_a_faint_streak_kept_by_its_ragged_cells_is_a_streak_in_the_blobs_read_l
     assert len(blobs) == 1 and not blobs.swept[0] and blobs.ball_radii()[0] > 6  # half its length
     told = _as_streaks(blobs, kept)
     assert told.swept[0] and told.ball_radii()[0] < 2.5
+    shifted = [(kept[0][0] + 1, kept[0][1] + 1)]  # its first pixel off the label grid's (every second pixel's)
+    moved = np.zeros_like(pale)
+    moved[shifted[0]] = 1
+    assert _as_streaks(find_blobs(moved, "components", 6), shifted).swept[0]
     cv2.circle(pale, (int(blobs.centres[0, 0]), int(blobs.centres[0, 1]) + 6), 6, 1, -1)  # a disc joined to it
     joined = find_blobs(pale, "components", 6)
     assert len(joined) == 1 and not _as_streaks(joined, kept).swept[0]
