@@ -372,11 +372,11 @@ class TrackManager:
         tr.link = None
 
     def _correct(self, tr: TrackState, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
-        z = np.ascontiguousarray(z, dtype=float)
+        z, dt = np.ascontiguousarray(z, dtype=float), time - tr.last_hit
         # Its second object in its gate, gone across the view as only a flying ball goes: it starts at the two objects'
         # velocity (``_start_moving``), not from rest held back by init_speed_sigma (motion.flies_across).
-        if tr.hits == 1 and self._centres and flies_across(tr.x[:3], z, time - tr.last_hit, self._centres):
-            self._start_moving(tr, tr.x[:3].copy(), z, R, time - tr.last_hit)
+        if tr.hits == 1 and self._centres and flies_across(tr.x[:3], z, dt, self._centres):
+            self._start_moving(tr, tr.x[:3].copy(), z, R, dt)
         else:
             tr.x, tr.P = kalman_correct(tr.x, tr.P, z, robust_noise(tr.x[:3], tr.P[:3, :3], z, R) if self._fast(tr) else R)
         self._hit(tr, z, R, obj, time)
