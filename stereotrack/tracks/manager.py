@@ -43,18 +43,17 @@ from ..config import TrackSettings
 from ..results import Object3D, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import FAST_FLIGHT, FIRST_HIT_SIGMAS, entering, fast_flight_model, flies_across, motion_model, moved_across_sight, robust_noise
+from .motion import FAST_FLIGHT, entering, fast_flight_model, flies_across, motion_model, moved_across_sight, robust_noise
 from .sight import in_view, on_balls
 from .smoothing import between_hits, hindsight_fills
+from .start import EPS_TIME, INFEASIBLE, second_objects, start_moving
 from .state import TrackState
 
 FAST_CONFIRM_HITS = 3  # hits in a row that confirm a track moving at tracks.confirm_speed
 # An object placed this sharply (one sigma, ball radii) is sharp: a first one at streaks (Object3D.swept) confirms its
 # track, and one at rest may be a fast ball that stopped (``_caught``).
 SWEPT_CONFIRM_RADII = 2.0
-_EPS_TIME = 1e-6  # seconds: frame times are floats; 0.1 s at 30 fps must count as 0.1 s
 _FLIGHT_FIT_SIGMA = 0.02  # metres: objects vaguer than this per axis (depth-ambiguous: merged or hidden views) stay out of the flight fit
-_INFEASIBLE = 1e9  # cost of a pair outside the gate (the solver then maximises the number of gated pairs)
 TRAVEL = 2.0  # a track is settled (its ball keeps its disc out of the background) once it has gone this many ball radii from where it was first shown ...
 HAND_SPEED = 1.0  # m/s: how fast a caught ball may move with the hand that holds it (one sigma, per axis)
 STOP_SPEED = 2.0  # m/s: a ball this fast at its latest hit may have stopped there (caught, at a wall): tried there too
@@ -288,7 +287,7 @@ class TrackManager:
             cost[rows] = np.where(better, costh, cost[rows])
             gated[rows] |= better
             caught[rows] = better
-        rows, cols = linear_sum_assignment(np.where(gated, cost, _INFEASIBLE))
+        rows, cols = linear_sum_assignment(np.where(gated, cost, INFEASIBLE))
         return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
 
     def _caught(self, tr: TrackState, time: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -351,13 +350,13 @@ class TrackManager:
         started a new track, and the one left at rest took the ball on its next pass (motion_blur tune seed 19: 38 id
         switches)."""
         sharp = bool(self._sharp(target, R))
-        lost = [t for t in self._tracks if t.target == target and not t.hit and time - t.last_hit <= LAUNCH_TIME + _EPS_TIME]
+        lost = [t for t in self._tracks if t.target == target and not t.hit and time - t.last_hit <= LAUNCH_TIME + EPS_TIME]
         lost = [(t, self._pace(t, sharp)) for t in lost if t.seen_at is not None]
         lost = [(t, p) for t, p in lost if p is not None]
         if not lost:
             return None
         dist = np.array([np.linalg.norm(z - t.seen_at) for t, _ in lost])
-        reach = np.array([LAUNCH_MARGIN * p * max(time - t.last_hit, _EPS_TIME) for t, p in lost])
+        reach = np.array([LAUNCH_MARGIN * p * max(time - t.last_hit, EPS_TIME) for t, p in lost])
         k = int(np.argmin(np.where(dist <= reach, dist, np.inf)))
         return lost[k] if dist[k] <= reach[k] else None
 
@@ -384,47 +383,17 @@ class TrackManager:
     def _two_point(
         self, target: str, z: np.ndarray, R: np.ndarray, objs: Sequence[Object3D], free: np.ndarray, owned: np.ndarray, time: float
     ) -> None:
-        """Two-point start of fast balls: a track seen once whose second object fell outside its gate (a ball thrown at
-        20 m/s moves a third of a metre between frames at 60 fps; a velocity prior of a few m/s gates a few centimetres)
-        takes the nearest unmatched object within ``max_speed`` of it (not one ``owned`` by a steady track's ball), and its
-        velocity from the two. A static ball's noisy first objects still meet in the ordinary gate, where the prior keeps
-        its velocity small."""
+        """Two-point start of fast balls (``start.second_objects``): a track seen once whose second object fell outside its
+        gate takes the nearest free object within ``max_speed`` of it (not one ``owned`` by a steady track's ball)."""
         young = [t for t in self._tracks if t.target == target and not t.hit and t.hits == 1]
-        cols = np.flatnonzero(free & ~owned)
-        if not young or not len(cols):
-            return
-        first = np.array([t.x[:3] for t in young])  # a track seen once has no velocity: its prediction is where it was seen
-        dt = np.array([max(time - t.last_hit, _EPS_TIME) for t in young])
-        dist = np.linalg.norm(first[:, None] - z[cols][None], axis=2)
-        near = dist <= self.settings.max_speed * dt[:, None]
-        rows, cc = linear_sum_assignment(np.where(near, dist, _INFEASIBLE))
-        for r, c in zip(rows, cc):
-            if not near[r, c]:
-                continue
-            tr, j = young[r], cols[c]
-            self._start_moving(tr, first[r], z[j], R[j], dt[r])
+        for tr, j, first, dt in second_objects(young, z, np.flatnonzero(free & ~owned), time, self.settings.max_speed):
+            self._start_moving(tr, first, z[j], R[j], dt)
             self._hit(tr, z[j], R[j], objs[j], time)
             free[j] = False
 
     def _start_moving(self, tr: TrackState, first: np.ndarray, z: np.ndarray, R: np.ndarray, dt: float) -> None:
-        """A track seen once at ``first`` takes its second object (``z``, noise ``R``) ``dt`` seconds on: the velocity
-        is their difference, as uncertain as both. The first hit counts no sharper than the second, and FIRST_HIT_SIGMAS
-        times vaguer than that: a ball coming in is cut by the image's edge (or found in part by particles that have
-        just reached it), its first object vague and off towards the inside (fast_ball tune seed 7 frame 49: 0.54 m,
-        sigma 0.28; taken as sharp as the second, the velocity missed the third hit by 0.5 m, and a new track took it).
-        The first frame's state in its history is rewritten so, velocity open up to max_speed, and linked to this one:
-        the smoother then revises the first hit from the later ones (set anew, it was written where it was seen: a miss
-        and a false positive)."""
-        past, k = tr.past, tr.past.n - 1
-        mine = k >= 0 and abs(past.times[k] - tr.last_hit) <= _EPS_TIME and dt > _EPS_TIME  # its first hit, the frame before
-        R1 = past.P[k, :3, :3].copy() if mine else R
-        R1 = FIRST_HIT_SIGMAS**2 * (R1 if np.trace(R1) > np.trace(R) else R)
-        P = np.zeros((6, 6))
-        P[:3, :3], P[:3, 3:], P[3:, :3], P[3:, 3:] = R, R / dt, R / dt, (R1 + R) / dt**2
-        tr.x, tr.P, tr.link = np.r_[z, (z - first) / dt], P, None
-        if mine:
-            F, Q, b = self._motion_model(dt, False)
-            tr.link = (*kalman_predict(*past.restate_newest(R1, self.settings.max_speed), F, Q, b), F)
+        """``start.start_moving`` with this manager's motion model over ``dt``."""
+        start_moving(tr, first, z, R, dt, self._motion_model(dt, False), self.settings.max_speed)
 
     def _hit(self, tr: TrackState, z: np.ndarray, R: np.ndarray, obj: Object3D, time: float) -> None:
         """A track met an object: its lifecycle moves on."""
@@ -445,7 +414,7 @@ class TrackManager:
             tr.arrival = tr.top_speed
         tr.top_speed = max(tr.top_speed, speed) if fast else 0.0
         tr.caught_at = (tr.seen_at, tr.P[:3, :3].copy()) if tr.in_flight or fast else None
-        if not tr.confirmed and time - tr.born >= self.settings.confirm_time - _EPS_TIME:
+        if not tr.confirmed and time - tr.born >= self.settings.confirm_time - EPS_TIME:
             tr.confirmed = True
         # Three hits in a row that a fast constant-velocity motion explains: the second gave the velocity, the third
         # fell in a gate a few centimetres wide around where it predicted. Clutter does not fly; a thrown ball crosses
@@ -460,7 +429,7 @@ class TrackManager:
             return
         if np.trace(R) < 3 * _FLIGHT_FIT_SIGMA**2:
             tr.history.append((time, np.array(z, float)))
-        tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + _EPS_TIME]
+        tr.history = [(t, p) for t, p in tr.history if time - t <= self.settings.flight_window + EPS_TIME]
         times = np.array([t for t, _ in tr.history])
         positions = np.array([p for _, p in tr.history]).reshape(-1, 3)
         if len(times) >= 5 and times[-1] - times[0] >= 0.4 * self.settings.flight_window:
@@ -468,7 +437,7 @@ class TrackManager:
             if flying and not tr.in_flight:
                 tr.launch = float(np.min(positions @ self._up))
             tr.in_flight = flying
-        enough = len(times) >= 3 and times[-1] - times[0] > _EPS_TIME
+        enough = len(times) >= 3 and times[-1] - times[0] > EPS_TIME
         tr.parabola = fit_parabola(times, positions, self.gravity) if tr.in_flight and enough else None
 
     def _lost_near(self, target: str, z: np.ndarray, time: float) -> bool:
@@ -478,7 +447,7 @@ class TrackManager:
         if not lost:
             return False
         pos = np.array([t.x[:3] for t in lost])
-        reach = np.array([self.settings.max_speed * max(time - t.last_hit, _EPS_TIME) for t in lost])
+        reach = np.array([self.settings.max_speed * max(time - t.last_hit, EPS_TIME) for t in lost])
         return bool((in_view(self.rig, pos) & (np.linalg.norm(pos - z, axis=1) <= reach)).any())
 
     def _first_state(self, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -496,7 +465,7 @@ class TrackManager:
         # first two of every throw). A far one's depth is vaguer: reported there, it would be a miss and a false track.
         # A ``rival`` (``_lost_near``) may be the same ball: its track gets the hits to win it back first.
         fast = self.settings.confirm_speed > 0 and obj.swept and bool(self._sharp(target, R)) and not rival
-        tr.confirmed = self.settings.confirm_time <= _EPS_TIME or fast
+        tr.confirmed = self.settings.confirm_time <= EPS_TIME or fast
         tr.entry = None if self._before is None or self.rig is None else (self._before, (time, z.copy(), R.copy(), tr.n_particles))
         self._next_id += 1
         return tr
@@ -546,7 +515,7 @@ class TrackManager:
         if window <= 0:
             return ()
         tr.past.append(time, tr.x, tr.P, tr.link, (tr.confirmed or tr.hit) and not self._caught_below_launch(tr, tr.x), tr.hit)
-        return tr.past.revise_until(time - window + _EPS_TIME, tr.confirmed)
+        return tr.past.revise_until(time - window + EPS_TIME, tr.confirmed)
 
     def _caught_below_launch(self, tr: TrackState, x: np.ndarray) -> bool:
         """Is this track, missed at state ``x``, a flying ball lost on its way down past the height it was thrown from?
@@ -554,7 +523,7 @@ class TrackManager:
         return bool(not tr.hit and tr.in_flight and tr.caught_at is not None and tr.launch is not None and x[:3] @ self._up < tr.launch)
 
     def _expired(self, tr: TrackState, time: float) -> bool:
-        return time - tr.last_hit > (self.settings.delete_time if tr.confirmed else self.settings.tentative_time) + _EPS_TIME
+        return time - tr.last_hit > (self.settings.delete_time if tr.confirmed else self.settings.tentative_time) + EPS_TIME
 
     def _shadowed(self, target: str, time: float) -> None:
         """Mark each of ``target``'s confirmed tracks missed this frame, seen fewer than SHADOW_RUN frames in a row
@@ -578,7 +547,7 @@ class TrackManager:
         # A confirmed ball missed for a frame or two (merged with another, a blink of occlusion) is
         # still reported, at its predicted position, for at most report_coasting seconds.
         # A track seen once has no velocity to coast by (one confirmed by its first streak, ``_new_track``).
-        recent = tr.time - tr.last_hit <= self.settings.report_coasting + _EPS_TIME
+        recent = tr.time - tr.last_hit <= self.settings.report_coasting + EPS_TIME
         coasting_ok = recent and in_view and tr.hits > 1 and not (tr.contested or tr.shadowed)
         reported = tr.confirmed and (tr.hit or coasting_ok)
         if self._caught_below_launch(tr, x):

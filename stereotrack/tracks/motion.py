@@ -36,10 +36,6 @@ def motion_model(dt: float, accel_noise: float, gravity: np.ndarray | None) -> t
 # no gravity until the free-flight test): drag 0.012 with noise 9 +3.75 (median 0.950 -> 0.964), 3 +2.79, 30 +0.30;
 # noise 9 with drag 0.006 +1.02, 0.02 +1.25, none -0.80. Seeds 160-319, never looked at: +2.37 (median 0.966 -> 0.976).
 FAST_FLIGHT = 8.0
-# A fast ball's first object is off by about twice its claimed sigma, against later ones (fast_ball tune seeds 0-39:
-# |error| / sigma along the rays, median 0.33 against 0.21 from the fourth on, 90th percentile 1.93 against 0.78).
-# Counted so (variance x 4), the smoother revises it from later hits: fast_ball tune median 0.950 -> 0.964 (x 2-100: 0.958-0.963).
-FIRST_HIT_SIGMAS = 2.0
 
 
 def fast_flight_model(dt: float, velocity: np.ndarray, accel_noise: float, gravity: np.ndarray | None, drag: float) -> tuple:
