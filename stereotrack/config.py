@@ -218,8 +218,9 @@ class TrackSettings:
     measurement_sigma: float = setting(0.01, "metres, added to each object's own covariance as measurement noise", low=0.0, high=10.0)
     init_speed_sigma: float = setting(3.0, "velocity uncertainty of a new track, m/s", low=0.0, high=1000.0)
     max_speed: float = setting(
-        40.0, "m/s; a new track missed by its second object's gate takes the nearest unmatched one this fast away, and "
-        "its velocity from the two (a thrown ball moves metres between frames); 0 = off", low=0.0, high=1000.0,
+        40.0, "m/s, the fastest a ball flies: a new track missed by its second object's gate takes the nearest unmatched "
+        "one this fast away, and its velocity from the two (a thrown ball moves metres between frames); no track takes "
+        "an object that would make it faster; 0 = off", low=0.0, high=1000.0,
     )  # fmt: skip
     confirm_speed: float = setting(
         5.0, "m/s; a track this fast is confirmed after three hits in a row, before confirm_time: clutter does not fly, "

@@ -43,7 +43,16 @@ from ..config import TrackSettings
 from ..results import Object3D, TrackEstimate
 from .flight import fit_parabola, in_free_flight
 from .kernels import association_costs, kalman_correct, kalman_predict
-from .motion import FAST_FLIGHT, entering, fast_flight_model, flies_across, motion_model, moved_across_sight, robust_noise
+from .motion import (
+    FAST_FLIGHT,
+    entering,
+    fast_flight_model,
+    flies_across,
+    motion_model,
+    moved_across_sight,
+    robust_noise,
+    within_max_speed,
+)
 from .sight import in_view, on_balls
 from .smoothing import between_hits, hindsight_fills
 from .start import EPS_TIME, INFEASIBLE, second_objects, start_moving
@@ -272,7 +281,7 @@ class TrackManager:
         z, R = np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float)
         # Negative log-likelihood: among gated pairs, a sharp track beats a vague (long-coasting) one.
         d2, cost = association_costs(pos, Pp, z, R)
-        gated = d2 <= self.settings.gate
+        gated = (d2 <= self.settings.gate) & self._within_max_speed(tracks, z, R, d2)
         caught = np.zeros(d2.shape, bool)
         held = [(i, self._caught(t, time)) for i, t in enumerate(tracks)]
         held = [(i, h) for i, h in held if h is not None]
@@ -289,6 +298,17 @@ class TrackManager:
             caught[rows] = better
         rows, cols = linear_sum_assignment(np.where(gated, cost, INFEASIBLE))
         return [(int(r), int(c), bool(caught[r, c])) for r, c in zip(rows, cols) if gated[r, c]]
+
+    def _within_max_speed(self, tracks: list[TrackState], z: np.ndarray, R: np.ndarray, d2: np.ndarray) -> np.ndarray:
+        """``motion.within_max_speed`` per track and object (T x M); a track seen once has no velocity to correct yet
+        (``start.start_moving`` caps its start)."""
+        ok = np.ones(d2.shape, bool)
+        rows = [i for i, t in enumerate(tracks) if t.hits >= 2]
+        if self.settings.max_speed > 0 and rows and len(z):
+            x, P = np.array([tracks[i].x for i in rows]), np.array([tracks[i].P for i in rows])
+            fast = np.array([self._fast(tracks[i]) for i in rows])
+            ok[rows] = within_max_speed(x, P, fast, z, R, d2[rows], self.settings.max_speed)
+        return ok
 
     def _caught(self, tr: TrackState, time: float) -> tuple[np.ndarray, np.ndarray] | None:
         """Where a ball would be had it stopped at its latest hit (a hand caught it, a wall stopped it): (position,

@@ -921,3 +921,28 @@ def test_a_fast_balls_second_object_in_its_gate_starts_it_at_the_two_objects_vel
         assert len(tracks) == 1
         speeds.append(float(np.linalg.norm(tracks[0].velocity)))
     assert abs(speeds[0] - 12.0) < 0.5 and speeds[1] < 3.0, speeds  # along the rays: held back by the prior (2.3 m/s)
+
+
+@pytest.mark.parametrize("max_speed", [40.0, 1000.0])
+def test_an_object_that_would_make_a_track_faster_than_max_speed_is_not_its_ball(max_speed):
+    """A ball thrown at 25 m/s, 10 m from the rig, its objects as vague in depth as far ones are; its third object is
+    0.7 m off along the line of sight (fast_ball seed 2028's frame 10). Taken, it sends the young track off at nearly
+    50 m/s, faster than any ball (tracks.max_speed), and the ball's next objects start a new track; left out, the
+    track stays on its ball."""
+    from scene_helpers import default_rig
+
+    m = TrackManager(TrackSettings(max_speed=max_speed), default_rig())
+    velocity, start = np.array([-25.0, 1.0, 2.0]), np.array([1.5, 10.0, 0.3])
+    speeds, errors = [], []
+    for i in range(12):
+        t = i / 60
+        truth = start + velocity * t
+        z, sd = (truth + [-0.38, -0.63, -0.06], [0.075, 0.144, 0.015]) if i == 2 else (truth, [0.11, 0.19, 0.02])
+        tracks = m.update([Object3D("red", z, np.diag(sd) ** 2, 0.5, 100)], t)
+        (first,) = [tr for tr in tracks if tr.track_id == 1]
+        speeds.append(np.linalg.norm(first.velocity))
+        errors.append(np.linalg.norm(first.position - truth))
+    if max_speed < 100:
+        assert max(speeds) <= max_speed and max(errors) < 0.05
+    else:  # the case is what it says: without the limit the track flies off
+        assert max(speeds) > 45 and min(errors[3:]) > 1.0
