@@ -83,8 +83,13 @@ def robust_noise(predicted: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndar
     """An object's noise as a fast track weighs it: ``R`` times d^2 / k^2 beyond k = ROBUST_SIGMAS, d^2 the object's
     squared Mahalanobis distance from the track's predicted position (3; ``P`` its 3 x 3 covariance)."""
     nu = z - predicted  # the innovation, its covariance S = P + R
-    d2 = float(nu @ np.linalg.solve(P + R, nu))
-    return R * max(1.0, d2 / ROBUST_SIGMAS**2)
+    return R * float(robust_scale(float(nu @ np.linalg.solve(P + R, nu))))
+
+
+def robust_scale(d2: np.ndarray | float) -> np.ndarray:
+    """How much vaguer a fast track takes an object ``d2`` squared sigmas from its prediction: d^2 / k^2 beyond k =
+    ROBUST_SIGMAS, else 1 (``robust_noise``)."""
+    return np.maximum(1.0, np.asarray(d2, float) / ROBUST_SIGMAS**2)
 
 
 def within_max_speed(
@@ -96,8 +101,7 @@ def within_max_speed(
     faster, so an object that would push a track past it is not its ball: a young fast track took one 0.7 m off along
     the line of sight, 4 sigmas, went from 25 to 51 m/s and lost its ball for 5 frames (fast_ball seed 2028). A track
     already past the limit (set too low for its balls) is left free."""
-    scale = np.where(fast, ROBUST_SIGMAS**-2, 0.0)
-    noise = R[None] * np.maximum(1.0, d2 * scale[:, None])[..., None, None]  # T x M x 3 x 3
+    noise = R[None] * np.where(fast[:, None], robust_scale(d2), 1.0)[..., None, None]  # T x M x 3 x 3
     S = P[:, None, :3, :3] + noise
     gain = np.linalg.solve(S, (z[None] - x[:, None, :3])[..., None])[..., 0]  # S^-1 (z - H x)
     after = x[:, None, 3:] + np.einsum("tij,tmj->tmi", P[:, 3:, :3], gain)  # x + K (z - H x), its velocity
