@@ -946,3 +946,18 @@ def test_an_object_that_would_make_a_track_faster_than_max_speed_is_not_its_ball
         assert max(speeds) <= max_speed and max(errors) < 0.05
     else:  # the case is what it says: without the limit the track flies off
         assert max(speeds) > 45 and min(errors[3:]) > 1.0
+
+
+def test_a_track_already_faster_than_max_speed_keeps_its_ball():
+    """tracks.max_speed set below a user's balls' speed must not starve their tracks: a track already past it takes an
+    object ahead on its path (within_max_speed leaves it free), while one under it is still kept from being pushed past."""
+    from stereotrack.tracks.motion import within_max_speed
+
+    dt = 1 / 60
+    F = np.block([[np.eye(3), dt * np.eye(3)], [np.zeros((3, 3)), np.eye(3)]])
+    P = (F @ np.diag([0.01**2] * 3 + [1.0**2] * 3) @ F.T)[None]  # predicted a frame on: position and velocity correlate
+    R = (np.eye(3) * 0.01**2)[None]
+    ahead = np.array([[0.05, 0.0, 0.0]])  # 5 cm ahead of the prediction: its correction adds 1.7 m/s along x
+    for speed, limit, taken in [(12.0, 10.0, True), (9.9, 10.0, False), (9.9, 40.0, True)]:
+        x = np.array([[0.0, 0.0, 0.0, speed, 0.0, 0.0]])
+        assert bool(within_max_speed(x, P, np.array([False]), ahead, R, np.array([[1.0]]), limit)[0, 0]) is taken, (speed, limit)
