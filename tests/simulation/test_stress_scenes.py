@@ -174,11 +174,12 @@ def test_a_fast_ball_is_5_to_15_m_away_wherever_a_camera_sees_it():
     for seed in range(12):
         spec = stress_scene("fast_ball", seed)
         times = np.arange(spec.n_frames) / spec.fps  # every frame at once, as SceneRenderer.ball_positions places them
+        cameras = spec.rig.build().cameras
         seen_rows = 0
         for ball in spec.balls:
             pts = ball.trajectory.positions(times)
             present = (ball.appear <= times) & (times < ball.disappear)
-            for cam in spec.rig.build().cameras:
+            for cam in cameras:
                 uv, front = cam.project(pts)
                 seen = present & front & cam.in_image(uv)
                 depth = cam.depth(pts)[seen]
