@@ -953,8 +953,7 @@ def test_a_track_already_faster_than_max_speed_keeps_its_ball():
     object ahead on its path (within_max_speed leaves it free), while one under it is still kept from being pushed past."""
     from stereotrack.tracks.motion import within_max_speed
 
-    dt = 1 / 60
-    F = np.block([[np.eye(3), dt * np.eye(3)], [np.zeros((3, 3)), np.eye(3)]])
+    F, _, _ = motion_model(1 / 60, 0.0, None)
     P = (F @ np.diag([0.01**2] * 3 + [1.0**2] * 3) @ F.T)[None]  # predicted a frame on: position and velocity correlate
     R = (np.eye(3) * 0.01**2)[None]
     ahead = np.array([[0.05, 0.0, 0.0]])  # 5 cm ahead of the prediction: its correction adds 1.7 m/s along x
