@@ -34,6 +34,9 @@ class Seeds:
     directions: np.ndarray  # M x 3 unit
     moved: np.ndarray | None = None  # M bool: the blob is (about) a blob of the moving map (None: none is)
     widths: np.ndarray | None = None  # M apparent radii of the one ball each would be (Blobs.ball_radii); None: radii
+    # M bool: a solid blob of the moving map that is no blob of the counted map (a ball moving before a wall of its
+    # colour, one blob with it in the mask): its rays make crossings too (proposal.RayProposal). None: none is.
+    alone: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -432,6 +435,11 @@ def still_streaks(blobs: Blobs, moving: np.ndarray | None) -> np.ndarray:
 
 
 DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blob's, and about its size, is that blob
+# A moving blob of its own (no colour blob) makes crossings when it is as solid as a ball's disc: no longer than ALONE_ASPECT
+# times its width, filling ALONE_FILL of its ellipse. hue_wall tune seed 115, two balls moving before a curtain of their hue:
+# aspect 1.07-1.52, fill 0.65-0.98 (most over 0.8); the moving edges of hands of the ball's colour (hands tune seed 12)
+# are ragged, fill 0.5-0.65 mostly, and their crossings had made lasting false balls (0.822 -> 0.189).
+ALONE_ASPECT, ALONE_FILL = 1.6, 0.75
 # p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
 # or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
 SURE = 191
@@ -486,8 +494,9 @@ def _seeds(
     centres, radii, o, d = [blobs.centres[keep]], [blobs.radii[keep]], [origins[keep]], [directions[keep]]
     moved = [moves[keep]]
     widths = [blobs.ball_radii()[keep]]
+    alone = [np.zeros(int(keep.sum()), bool)]
 
-    def take(more: Blobs, new: np.ndarray, moving: bool) -> None:
+    def take(more: Blobs, new: np.ndarray, moving: bool, solid: np.ndarray | None = None) -> None:
         if new.any():
             mo, md = camera.rays(more.centres[new])
             centres.append(more.centres[new])
@@ -496,12 +505,16 @@ def _seeds(
             o.append(mo)
             d.append(md)
             moved.append(np.full(int(new.sum()), moving))
+            alone.append(np.zeros(int(new.sum()), bool) if solid is None else solid[new])
 
     if mb is not None:
         new = ball_like(mb, camera.focal_px, *ball) if ball is not None else np.ones(len(mb), bool)
         if len(blobs) and len(mb):
             new &= ~same.any(axis=1)
-        take(mb, new, True)
+        solid = None
+        if mb.axes is not None:  # (the histogram finder measures no shape)
+            solid = (mb.axes[:, 0] <= ALONE_ASPECT * np.maximum(mb.axes[:, 1], 0.5)) & (mb.ellipse_fills() >= ALONE_FILL)
+        take(mb, new, True, solid)
     if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball
         for more in (sure,) if in_range is None else (sure, in_range):
@@ -522,4 +535,5 @@ def _seeds(
         np.vstack(d).reshape(-1, 3),
         moved=np.concatenate(moved),
         widths=np.concatenate(widths),
+        alone=np.concatenate(alone),
     )

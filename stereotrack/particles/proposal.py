@@ -74,7 +74,15 @@ def particles_on_rays(
 
 
 def ray_crossings(
-    views: Sequence[CameraEvidence], radius: float, d_min: float, d_max: float, skip=None, slack: float = 1.6, stretch=None, narrowed=None
+    views: Sequence[CameraEvidence],
+    radius: float,
+    d_min: float,
+    d_max: float,
+    skip=None,
+    slack: float = 1.6,
+    stretch=None,
+    narrowed=None,
+    more=None,
 ) -> np.ndarray:
     """Where blob rays of two cameras (nearly) meet: K x 3 midpoints of their closest approach.
 
@@ -89,7 +97,9 @@ def ray_crossings(
     ball's width a blob's larger side may be besides (None: 1, a ball on the
     camera's axis and still); ``narrowed`` (likewise, at least 1): how much
     narrower than a ball a blob's width may read besides (None: 1; a fast
-    ball's streak loses its faded sides from its mask).
+    ball's streak loses its faded sides from its mask). ``more`` (per camera,
+    or None): rays of blobs of another map, paired with the blobs' and with
+    each other, as (origins, directions, widths in pixels, log stretch, use flags).
     """
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
     if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
@@ -99,18 +109,14 @@ def ray_crossings(
         return [np.zeros(len(v.blobs)) if factors is None else np.log(np.asarray(factors[j], float)) for j, v in enumerate(views)]
 
     ks, ns = logs(stretch), logs(narrowed)
+    rays = [(*v.rays, v.blobs.ball_radii(), ks[j], ns[j], use[j]) for j, v in enumerate(views)]
+    for j, (o, d, widths, k, u) in enumerate(more or ()):  # after the blobs' rays (none narrowed)
+        o1, d1, w1, k1, n1, u1 = rays[j]
+        rays[j] = (np.vstack([o1, o]), np.vstack([d1, d]), np.r_[w1, widths], np.r_[k1, k], np.r_[n1, np.zeros(len(o))], np.r_[u1, u])
     out = [
         crossing_points(
-            *a.rays,
-            a.blobs.ball_radii(),
-            ks[j],
-            ns[j],
-            use[j],
-            *b.rays,
-            b.blobs.ball_radii(),
-            ks[k],
-            ns[k],
-            use[k],
+            *rays[j],
+            *rays[k],
             a.camera.R,
             a.camera.t,
             a.camera.focal_px,
@@ -124,9 +130,23 @@ def ray_crossings(
         )  # fmt: skip
         for j, a in enumerate(views)
         for k, b in enumerate(views)
-        if j < k and len(a.blobs) and len(b.blobs)
+        if j < k and len(rays[j][0]) and len(rays[k][0])
     ]
     return np.vstack(out) if out else np.zeros((0, 3))
+
+
+def crossing_particles(n: int, share: float, mask_crossings: int, crossings: int) -> int:
+    """How many of ``n`` abductive particles go around the ``crossings`` (the first ``mask_crossings`` of them the colour
+    mask's blobs', the rest moving blobs' of their own: Seeds.alone): ``share`` of them for the mask's, and as many per
+    crossing again for the others, from the rays' part (at most half of ``n``). Shared out of the mask's part instead, the
+    others took particles from a ball's own crossing, and found it later (hands tune seed 36: frames not yet found 11 ->
+    29)."""
+    if not crossings:
+        return 0
+    least = int(round(share * n))
+    if not mask_crossings or crossings == mask_crossings:
+        return least
+    return max(least, min(int(round(share * n * crossings / mask_crossings)), n // 2))
 
 
 def _holders(projected: tuple[np.ndarray, np.ndarray], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -135,6 +155,22 @@ def _holders(projected: tuple[np.ndarray, np.ndarray], centres: np.ndarray, radi
     uv, ok = projected
     d = np.linalg.norm(uv[:, None] - centres[None], axis=2)
     return (ok[:, None] & (d < np.maximum(radii[None], HELD_MIN_PX))).sum(axis=0)
+
+
+def _alone_rays(views: Sequence[CameraEvidence], seeds: Sequence, projected: list | None) -> list | None:
+    """Per camera, the rays of its seeds that are moving blobs of their own (Seeds.alone: a coloured ball moving before a
+    wall of its colour, one blob with the wall in the mask, too large to cross) as ray_crossings pairs them (``more``):
+    origins, directions, widths, log stretch (read off the camera's axis as a moving blob's: _off_axis) and whether to
+    use each (not one a tracked ball projects into: ``projected``, as _holders takes it). None when no seed is such."""
+    if not any(b.alone is not None and b.alone.any() for b in seeds):
+        return None
+    out = []
+    for j, (v, b) in enumerate(zip(views, seeds)):
+        a = np.flatnonzero(b.alone) if b.alone is not None else np.zeros(0, int)
+        use = _holders(projected[j], b.centres[a], b.radii[a]) == 0 if projected is not None else np.ones(len(a), bool)
+        widths = (b.widths if b.widths is not None else b.radii)[a]
+        out.append((b.origins[a], b.directions[a], widths, -np.log(_off_axis(v.camera, b.directions[a])), use))
+    return out
 
 
 def _still(view: CameraEvidence) -> np.ndarray:
@@ -231,6 +267,7 @@ class RayProposal:
         if not origins:  # nothing of this colour in any image: search blindly
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
         crossings = np.zeros((0, 3))
+        n_cross = 0
         if s.crossing_share > 0:
             # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
             # into are left out (their ball has its particles; a partly hidden one's shifted centroid
@@ -256,7 +293,11 @@ class RayProposal:
                 if self.moving_first:  # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                     held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed)
-        n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
+            alone = None if self.moving_first else _alone_rays(views, seeds, projected)
+            n_mask = len(crossings)
+            if alone is not None:
+                crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed, more=alone)
+            n_cross = crossing_particles(n, s.crossing_share, n_mask, len(crossings))
         pts = self._on_rays(
             np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng
         )

@@ -291,3 +291,55 @@ def test_a_fast_ball_whose_streak_reads_narrower_than_the_ball_keeps_its_crossin
     settings = TrackerSettings(d_min=0.2, d_max=5.0, crossing_share=0.0)
     pts = RayProposal(settings, RADIUS)(views, 400, None, np.random.default_rng(0))
     assert (np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS).sum() >= 5
+
+
+def test_a_ball_moving_before_a_wall_of_its_colour_crosses_from_its_moving_blobs_a_ragged_moving_edge_does_not(monkeypatch):
+    """A ball before a wall of its hue: in the colour mask its disc joins the wall's blob, far too large for a ball, which
+    crosses nothing; in the moving map it is a solid blob of its own, and its rays in the two views cross at the ball
+    (hue_wall tune seed 115: two balls moving before a curtain of their hue had no crossing, and were found after 13 and
+    29 frames). A ragged moving blob of a ball's size (a hand's moving fingers: here a thick ring, filling about half of its
+    disc) seeds particles along its rays but crosses nothing (gather.ALONE_FILL)."""
+    from stereotrack.config import TrackerSettings
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles import proposal
+
+    rig = default_rig()
+    ball = np.array([[0.1, 1.6, -0.1]])
+    discs, _ = disc_masks(rig, ball)
+    made = []
+
+    def spy(*args, **kwargs):
+        made.append(ray_crossings(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(proposal, "ray_crossings", spy)
+    for ragged in (False, True):
+        views = []
+        for cam, disc in zip(rig.cameras, discs):
+            u = int(cam.project(ball)[0][0, 0])
+            wall = np.zeros_like(disc)
+            wall[:, u + 2 :] = 1  # the wall of its colour, from inside the ball's disc to the image's right edge
+            moving = disc.copy()
+            if ragged:
+                x, y = cam.project(ball)[0][0]
+                cv2.circle(moving, (round(x), round(y)), int(0.6 * cam.apparent_radius(RADIUS, cam.depth(ball))[0]), 0, -1)
+            views.append(CameraEvidence.from_mask(cam, disc | wall, foreground=moving, ball=(RADIUS, 0.2, 5.0)))
+            assert len(views[-1].blobs) == 1  # the ball and the wall: one blob of the mask
+        assert not len(ray_crossings(views, RADIUS, 0.2, 5.0))  # (which crosses nowhere)
+        assert all(v.seeds is not None and len(v.seeds) == 1 for v in views)  # the moving blob seeds, ragged or not
+        proposal.RayProposal(TrackerSettings(), RADIUS)(views, 400, None, np.random.default_rng(0))
+        nearest = np.linalg.norm(made[-1] - ball, axis=1).min(initial=np.inf)
+        assert nearest > 0.05 if ragged else nearest < 0.01
+
+
+def test_crossings_of_moving_blobs_of_their_own_take_particles_from_the_rays_not_from_the_masks_crossings():
+    """The mask's crossings keep crossing_share of the abductive particles whatever else crosses: the moving blobs' own
+    crossings get as many each again, from the rays' part, at most half of them all."""
+    from stereotrack.particles.proposal import crossing_particles
+
+    assert crossing_particles(400, 0.25, 0, 0) == 0
+    assert crossing_particles(400, 0.25, 2, 2) == 100  # the mask's alone: as before
+    assert crossing_particles(400, 0.25, 0, 3) == 100  # moving blobs' alone: the share
+    assert crossing_particles(400, 0.25, 2, 3) == 150  # 50 each: the mask's two keep their 100
+    assert crossing_particles(400, 0.25, 1, 9) == 200  # at most half
+    assert crossing_particles(400, 0.75, 2, 3) == 300  # never less than the share
