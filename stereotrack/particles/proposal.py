@@ -136,11 +136,11 @@ def ray_crossings(
 
 
 def crossing_particles(n: int, share: float, mask_crossings: int, crossings: int) -> int:
-    """How many of ``n`` abductive particles go around the ``crossings`` (the first ``mask_crossings`` of them the colour
-    mask's blobs', the rest moving blobs' of their own: Seeds.alone): ``share`` of them for the mask's, and as many per
-    crossing again for the others, from the rays' part (at most half of ``n``). Shared out of the mask's part instead, the
-    others took particles from a ball's own crossing, and found it later (hands tune seed 36: frames not yet found 11 ->
-    29)."""
+    """How many of ``n`` abductive particles go around the crossings (``crossings`` in all, ``mask_crossings`` of them
+    the colour mask's blobs' alone, the others with a moving blob of its own: Seeds.alone): ``share`` of them for the
+    mask's, and as many per crossing again for the others, from the rays' part (at most half of ``n``). Shared out of the
+    mask's part instead, the others took particles from a ball's own crossing, and found it later (hands tune seed 36:
+    frames not yet found 11 -> 29)."""
     if not crossings:
         return 0
     least = int(round(share * n))
