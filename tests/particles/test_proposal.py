@@ -316,12 +316,11 @@ def test_a_ball_moving_before_a_wall_of_its_colour_crosses_from_its_moving_blobs
     for ragged in (False, True):
         views = []
         for cam, disc in zip(rig.cameras, discs):
-            u = int(cam.project(ball)[0][0, 0])
+            x, y = cam.project(ball)[0][0]
             wall = np.zeros_like(disc)
-            wall[:, u + 2 :] = 1  # the wall of its colour, from inside the ball's disc to the image's right edge
+            wall[:, int(x) + 2 :] = 1  # the wall of its colour, from inside the ball's disc to the image's right edge
             moving = disc.copy()
             if ragged:
-                x, y = cam.project(ball)[0][0]
                 cv2.circle(moving, (round(x), round(y)), int(0.6 * cam.apparent_radius(RADIUS, cam.depth(ball))[0]), 0, -1)
             views.append(CameraEvidence.from_mask(cam, disc | wall, foreground=moving, ball=(RADIUS, 0.2, 5.0)))
             assert len(views[-1].blobs) == 1  # the ball and the wall: one blob of the mask
