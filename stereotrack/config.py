@@ -98,7 +98,9 @@ class TrackerSettings:
         "whose blob is a ball's disc of the size at its depth in no view, or that lies at the end of a bar of its colour as "
         "wide as it in some view (unless, before things of its colour, its outline shows all round), or that is one flat "
         "colour in every view (a sticker), or whose outline is round in no view that shows it 5 pixels or more in radius (a "
-        "cube), is no ball: both dropped (with motion only)",
+        "cube), is no ball: both dropped (with motion only); so is a white or grey target's object in whose disc nothing "
+        "changed in the last 5 frames (its shading keeps it moving), away from every travelled ball, whose outline is "
+        "round in no view (a table's corner)",
     )
     outlines: bool = setting(
         True,

@@ -451,6 +451,18 @@ class BackgroundModel:
         disc = np.hypot(xs - u, ys - v) <= max(r, 1.0)
         return bool(disc.any()) and float(np.median(self._calm[y0:y1, x0:x1][disc])) >= ABSORB_FRAMES
 
+    def changed(self, foreground: np.ndarray, u: float, v: float, r: float) -> bool:
+        """Whether the box of a disc (centre ``u``, ``v``, radius ``r`` on the evidence grid) holds a cell of this frame's
+        ``foreground`` (``update``'s) that changed in the last ABSORB_FRAMES frames: something moves there, rather than
+        differing from the background while still (a thing put down, a white ball's shading at rest)."""
+        h, w = self._calm.shape
+        u, v, r = u / SCALE, v / SCALE, r / SCALE
+        x0, x1 = max(int(u - r), 0), min(int(u + r) + 2, w)
+        y0, y1 = max(int(v - r), 0), min(int(v + r) + 2, h)
+        if x1 <= x0 or y1 <= y0:
+            return False
+        return bool(((foreground[y0:y1, x0:x1] > 0) & (self._calm[y0:y1, x0:x1] < ABSORB_FRAMES)).any())
+
     def _discs(self, balls: TrackedBalls) -> np.ndarray:
         """Per ball, its kept-out disc on the background's grid: B x 3 (u, v, radius; NaN behind the camera)."""
         uv, front, depth = self.camera.view(balls.centres)

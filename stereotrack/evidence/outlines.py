@@ -90,7 +90,7 @@ OWN_SHARE = 0.65
 # round things on one epipolar line are no answer), and its core (CORE of its radius) is CORE_IN_RANGE or more in the
 # target's range there.
 CORE, CORE_IN_RANGE = 0.7, 0.5
-# A disc's centre is looked for within this many pixels of its blob's (_centred)
+# A disc's centre is looked for within this many pixels of its blob's (centred)
 CENTRE_PX = 2
 # A tracked ball is looked for again between its distance along a view's ray over and times this (held_discs)
 HELD_RANGE = 1.15
@@ -150,7 +150,7 @@ def buried_partners(
         for u, v, width in np.asarray(discs[i], float).reshape(-1, 3):
             if width < FIND_MIN_PX / WIDTH_RATIO:
                 continue
-            u, v, share = _centred(images[i], u, v, width)
+            u, v, share = centred(images[i], u, v, width)
             if share < OWN_SHARE:  # its own outline is no ball's at its own width: no depth will make it one
                 continue
             origin, direction = (a[0] for a in cam.rays(np.array([[u, v]])))
@@ -172,7 +172,7 @@ def held_discs(
     points: np.ndarray, images: Sequence[np.ndarray], cameras: Sequence[Camera], in_range: Sequence[np.ndarray], radius: float
 ) -> list[Find]:
     """The balls tracked at ``points`` (P x 3) found again (Find) as
-    buried_partners finds them, from a view that shows a round outline of their size near where they project (_centred)
+    buried_partners finds them, from a view that shows a round outline of their size near where they project (centred)
     and within HELD_RANGE of their distance along its ray: a ball found by its outline stays found, whatever the colour
     model since learnt of it (hue_wall seed 3051: once its track had taught the model its colours, the wall behind it
     took them too, and its disc was no seed of its own); and where it rolls away, its depth follows it (white_ball tune
@@ -185,7 +185,7 @@ def held_discs(
             r = float(cam.apparent_radius(radius, depth)[0])
             h, w = image.shape[:2]
             if front[0] and r >= OUTLINE_MIN_PX and 0 <= uv[0, 0] < w and 0 <= uv[0, 1] < h:
-                u, v, share = _centred(image, uv[0, 0], uv[0, 1], r)
+                u, v, share = centred(image, uv[0, 0], uv[0, 1], r)
                 if share >= OWN_SHARE:
                     shown.append((share, j, (u, v)))
         for _, i, (u, v) in sorted(shown):  # from the weakest view: the other must show it FOUND_SHARE
@@ -205,7 +205,7 @@ def held_discs(
     return finds
 
 
-def _centred(image: np.ndarray, u: float, v: float, width: float) -> tuple[float, float, float]:
+def centred(image: np.ndarray, u: float, v: float, width: float) -> tuple[float, float, float]:
     """The centre within CENTRE_PX pixels of (``u``, ``v``) where a circle ``width`` wide is roundest (round_rims), and
     its share: a blob's centroid is a grid's (the shading's is on the background's, two pixels a cell), its outline's is
     the ball's."""

@@ -27,7 +27,7 @@ from ..camera import Camera
 from ..config import Target
 from ..evidence.colour import box_counts, target_mask, to_hsv
 from ..evidence.gather import CameraEvidence
-from ..evidence.outlines import OUTLINE_MIN_PX, round_rim
+from ..evidence.outlines import OUTLINE_MIN_PX, centred, round_rim
 from .shapes import ROUND_FILL, ROUND_MIN_PX
 
 RING = (1.5, 3.0)  # the ring's inner and outer radii, in the ball's apparent radius ...
@@ -295,14 +295,17 @@ def rimmed(position: np.ndarray, radius: float, cameras: Sequence[Camera], image
     return any(_ring_in_range(image, centre, r, colour) >= RIM_RING for image, centre, r in shown)
 
 
-def rounded(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray]) -> bool:
+def rounded(position: np.ndarray, radius: float, cameras: Sequence[Camera], images: Sequence[np.ndarray], recentre: bool = False) -> bool:
     """Does a ball at ``position`` show a round outline (``round_rim`` at least OUTLINE_SHARE) in some view that shows it
-    OUTLINE_MIN_PX or more in radius? True when no view shows it so large (nothing told)."""
+    OUTLINE_MIN_PX or more in radius? True when no view shows it so large (nothing told). With ``recentre``, each view's
+    circle where it is roundest within outlines.CENTRE_PX pixels (``centred``): a white ball's object is its shading's
+    cluster, a pixel or two off its outline's centre."""
     told = False
     for cam, image in zip(cameras, images):
         uv, r = _seen(cam, position, radius)
         if r >= OUTLINE_MIN_PX:
-            if round_rim(image, uv, r) >= OUTLINE_SHARE:
+            share = centred(image, uv[0], uv[1], r)[2] if recentre else round_rim(image, uv, r)
+            if share >= OUTLINE_SHARE:
                 return True
             told = True
     return not told
@@ -418,27 +421,45 @@ class SurfacePatches:
         self.times = np.zeros(0)  # ... and when
 
     def drop(
-        self, objects: Sequence, views: Sequence[CameraEvidence], images: Sequence[np.ndarray], travelled: np.ndarray, now: float
+        self,
+        objects: Sequence,
+        views: Sequence[CameraEvidence],
+        images: Sequence[np.ndarray],
+        travelled: np.ndarray,
+        now: float,
+        calm: np.ndarray | None = None,
     ) -> np.ndarray:
         """Per object: is it a patch of the surface it is seen on, or (``shapes``) no ball's shape in any view? Only an
         object still in every view (``still``) and two radii or more from every ball that has travelled (``travelled``,
         B x 3: a ball that moved is no scenery, wherever it came to rest) is judged; the others are not dropped. A still
-        object whose outline is round in no view (``rounded``) is no ball either."""
+        object whose outline is round in no view (``rounded``) is no ball either.
+        ``calm`` (a white or grey target's; per object): nothing in its disc changed lately in any view (motion.
+        BackgroundModel.changed). Such a ball's shading keeps it in the moving map at rest, and ``still`` never holds;
+        away from every ball that has travelled, it must show a round outline in some view (``rounded``, re-centred). A
+        white table's corner or shelf board, shaded like a ball, does not: 0.17-0.42 where resting balls read 0.69 or
+        more in the view that shows them best (white_ball tune seeds 0-119: seed 89, a false track for 70 frames)."""
         out = np.zeros(len(objects), bool)
         for k, o in enumerate(objects):
-            if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any() or not still(o.position, self.radius, views):
+            if (np.linalg.norm(travelled - o.position, axis=1) < 2 * self.radius).any():
                 continue
-            if self.shapes and (
-                not self._shows_as_ball(o.position, views, images)
-                or flat(o.position, self.radius, self.cameras, images, self.colour)
-                or not rounded(o.position, self.radius, self.cameras, images)
-            ):
-                out[k] = True
-                continue
-            if self.shapes and whole_ball(o.position, self.radius, self.cameras, views, images):
-                continue
-            out[k] = self.on_surface(o.position, images, now)
+            if still(o.position, self.radius, views):
+                out[k] = self._scenery(o.position, views, images, now)
+            if not out[k] and calm is not None and calm[k]:
+                out[k] = not rounded(o.position, self.radius, self.cameras, images, recentre=True)
         return out
+
+    def _scenery(self, position: np.ndarray, views: Sequence[CameraEvidence], images: Sequence[np.ndarray], now: float) -> bool:
+        """A still object: (``shapes``) no ball's shape, flat or round in no view; else (unless a whole ball) a patch of
+        the surface it is seen on."""
+        if self.shapes and (
+            not self._shows_as_ball(position, views, images)
+            or flat(position, self.radius, self.cameras, images, self.colour)
+            or not rounded(position, self.radius, self.cameras, images)
+        ):
+            return True
+        if self.shapes and whole_ball(position, self.radius, self.cameras, views, images):
+            return False
+        return self.on_surface(position, images, now)
 
     def _shows_as_ball(self, position: np.ndarray, views: Sequence[CameraEvidence], images: Sequence[np.ndarray]) -> bool:
         """A disc of a ball's size in some view and at no bar's end in any (``ball_shaped``, ``in_bar``), or its outline all

@@ -208,7 +208,8 @@ class Tracker:
             kept_objects, into = explain(candidates, views[t.name], self.explain_settings[t.name], balls.of(t.name), occluders)
             # Nothing is still in a background's first frame (it is the background): nothing is judged there
             if t.name in self.surfaces and all(bg.compared for bg in self.backgrounds):
-                kept_objects, into = self._off_surfaces(kept_objects, into, views[t.name], pair.images, balls.of(t.name), now)
+                foregrounds = [m.foreground for _, _, _, m in per_camera] if t.any_hue else None
+                kept_objects, into = self._off_surfaces(kept_objects, into, views[t.name], pair.images, balls.of(t.name), now, foregrounds)
             remap = np.append(np.where(into >= 0, into + len(objects), -1), -1)  # the last entry maps label -1
             objects.extend(kept_objects)
             particle_sets.append(ParticleSet(t.name, st.positions, st.weights, st.abductive, remap[cl.labels]))
@@ -338,19 +339,36 @@ class Tracker:
 
         return thing
 
-    def _off_surfaces(self, objects: list[Object3D], into: np.ndarray, views, images, balls: TrackedBalls, now: float) -> tuple:
+    def _off_surfaces(
+        self, objects: list[Object3D], into: np.ndarray, views, images, balls: TrackedBalls, now: float, foregrounds=None
+    ) -> tuple:
         """The objects less those that are patches of the surface they are seen on (objects/surface.py: a still object
         away from every ball that has travelled, whose surround matches between views at its own depth: a book's end, a
-        poster's corner of the ball's colour); with ``into`` renumbered."""
+        poster's corner of the ball's colour); with ``into`` renumbered. With each camera's ``foregrounds`` (a white or
+        grey target's), a calm object must show a round outline too (SurfacePatches.drop)."""
         if not objects:
             return objects, into
-        drop = self.surfaces[objects[0].target].drop(objects, views, images, balls.where(balls.travelled).centres, now)
+        calm = self._calm(objects, foregrounds) if foregrounds is not None else None
+        drop = self.surfaces[objects[0].target].drop(objects, views, images, balls.where(balls.travelled).centres, now, calm)
         if not drop.any():
             return objects, into
         new = np.cumsum(~drop) - 1
         gone = drop[np.maximum(into, 0)]
         into = np.where((into >= 0) & ~gone, new[np.maximum(into, 0)], -1)
         return [o for o, d in zip(objects, drop) if not d], into
+
+    def _calm(self, objects: list[Object3D], foregrounds: list[np.ndarray]) -> np.ndarray:
+        """Per object, whether no camera's foreground changed lately in the box of its ball's disc (motion.BackgroundModel.
+        changed): what holds it in the moving map is shading or a still difference from the background."""
+        positions = np.array([o.position for o in objects])
+        radius = self.radius[objects[0].target]
+        out = np.ones(len(objects), bool)
+        for bg, foreground in zip(self.backgrounds, foregrounds):
+            uv, front, depth = bg.camera.view(positions)
+            r = bg.camera.apparent_radius(radius, depth) + 1.0  # a pixel more: the disc's blurred edge
+            for k in np.flatnonzero(front & np.isfinite(uv).all(axis=1)):
+                out[k] &= not bg.changed(foreground, uv[k, 0], uv[k, 1], r[k])
+        return out
 
     def _faint(self, target, j: int, small_halved: np.ndarray | None) -> Faint | None:
         """Where camera j's faint changes may hold a streak of ``target`` (a coloured one: motion.py's FAINT_SHARE)."""

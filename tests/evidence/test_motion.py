@@ -544,3 +544,31 @@ def test_a_white_ball_moving_before_a_busier_wall_under_a_new_track_is_no_ghost_
         bg.update(books([(x, y)]), _tracked_white_ball(cam, (x, y), 14, settled=False))
     fg = bg.update(books())  # and is gone: where it rolled, the wall is the background, no leftover of the ball
     assert not fg[240 // 2 - 6 : 240 // 2 + 7, 200 // 2 : (path[-1][0] - 14) // 2].any()
+
+
+def test_a_tracked_things_foreground_that_stays_is_told_from_one_that_changes():
+    """``changed``: a thing that comes and then stays under a track (a white table's corner that a false track keeps out of
+    the background) is foreground that has not changed for ABSORB_FRAMES frames; a ball moving there changes every frame.
+    The surface judge asks a white or grey target's calm objects for a round outline (objects/surface.py)."""
+    from stereotrack.evidence.motion import ABSORB_FRAMES
+
+    cam = default_rig().cameras[0]
+    rest = np.array([-0.3, 1.5, 0.0])
+    uv, _, z = cam.view(rest[None])
+    r = float(cam.apparent_radius(RADIUS, z[0]))
+    u, v = (int(c) // 2 for c in uv[0])  # on the background's grid
+
+    def held(at):
+        return TrackedBalls(at[None], np.array([RADIUS]), np.array([1]), ("pink",), np.array([True]))
+
+    for moves in (False, True):
+        bg = BackgroundModel(cam, rate=0.05, threshold=30)
+        for _ in range(5):
+            bg.update(frame(cam, wall=False))
+        for k in range(ABSORB_FRAMES + 3):
+            at = rest + np.array([0.004 * (k % 2) if moves else 0.0, 0.0, 0.0])  # (a ball rocking back and forth by 2 px)
+            fg = bg.update(frame(cam, at, wall=False), held(at))
+            if k == 0:
+                assert bg.changed(fg, *uv[0], r)  # it came this frame
+        assert fg[v, u] and bg.changed(fg, *uv[0], r) is moves
+        assert not bg.changed(fg, uv[0, 0] - 8 * r, uv[0, 1], r)  # nothing there

@@ -343,3 +343,29 @@ def test_a_still_thing_whose_outline_is_round_in_no_view_is_no_ball():
     far = np.array([0.1, 9.0, 0.05])  # a few pixels across in each view: its outline tells nothing
     assert all(cam.apparent_radius(RADIUS, cam.view(far[None])[2][0]) < OUTLINE_MIN_PX for cam in rig.cameras)
     assert rounded(far, RADIUS, rig.cameras, _shaded_squares(rig, far, _draw(rig, False)))
+
+
+def test_a_calm_white_thing_that_the_moving_map_holds_must_show_a_round_outline():
+    """A white or grey ball's shading keeps it in the moving map at rest, so ``still`` never holds for it; what the
+    judge is told instead is whether anything changed lately in its disc (``calm``: motion.BackgroundModel.changed). A
+    calm thing away from every ball that has travelled must show a round outline in some view, with each view's circle
+    re-centred within a couple of pixels (its object is its shading's cluster): a white table's corner, shaded like a
+    ball (white_ball tune seed 89: a false track for 70 frames), is dropped; a ball at rest is not, nor one whose object
+    sits a pixel or two off it, nor a thing that moves, nor one where a travelled ball came to rest."""
+    rig = default_rig()
+    at = np.array([0.1, 1.5, 0.05])
+    thing = [Object3D("white", at, np.eye(3) * 1e-4, 1.0, 100)]
+    patches, nothing_travelled = SurfacePatches(RADIUS, rig.cameras, shapes=False), np.zeros((0, 3))
+    views = _views(rig, _draw(rig, False), moving_at=at)  # in the moving map: never ``still``
+    ball, square = _draw(rig, False, ball=at), _shaded_squares(rig, at, _draw(rig, False))
+    for images, calm, dropped in [(square, True, True), (ball, True, False), (square, False, False), (square, None, False)]:
+        calm = None if calm is None else np.array([calm])
+        assert patches.drop(thing, views, images, nothing_travelled, 0.0, calm).tolist() == [dropped]
+    assert patches.drop(thing, views, square, at[None] + 0.01, 0.0, np.array([True])).tolist() == [False]
+    # its object two and a half pixels off the ball in each view: round only once re-centred
+    off = at + np.array([0.005, 0.0, -0.005])
+    shifts = [np.linalg.norm(cam.view(off[None])[0][0] - cam.view(at[None])[0][0]) for cam in rig.cameras]
+    assert all(2.0 <= s <= 3.0 for s in shifts), shifts
+    assert not rounded(off, RADIUS, rig.cameras, ball) and rounded(off, RADIUS, rig.cameras, ball, recentre=True)
+    off_thing = [Object3D("white", off, np.eye(3) * 1e-4, 1.0, 100)]
+    assert patches.drop(off_thing, views, ball, nothing_travelled, 0.0, np.array([True])).tolist() == [False]
