@@ -92,6 +92,13 @@ SHADING_BUSY_DRAWN = 0.4
 SHADING_CONTRAST = (
     40.0  # grey levels at least between a patch's brightest and darkest pixels (white_ball tune seeds: balls 66-115, decals 5-17)
 )
+# A grey ball's shading spans less than a white one's: its lit and its shaded side are both its albedo's share of the
+# light. The contrast asked is SHADING_CONTRAST_SHARE of the range's least value (the ball's shaded side), within
+# SHADING_CONTRAST_LEAST .. SHADING_CONTRAST (white_ball tune 0-119, patches passing every other test at frames 10, 45,
+# 80: still balls 32-37 at least value 100 (seed 65, a grey ball never found), others at most 34, at least value 132
+# (a door's knob, seed 47))
+SHADING_CONTRAST_SHARE = 0.3
+SHADING_CONTRAST_LEAST = 30.0
 SHADING_HOLE = 0.6  # a hole in the map (a ball's flat, lit centre) is filled when smaller than a disc of this many ball radii
 # A ball at rest against the room's long edges (wall and ceiling, wall and floor, a table's front) joins them in the
 # map, and the joined patch spans the image. The edges are straight: their gradient keeps one direction along their
@@ -135,7 +142,8 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float, crowded: b
     fill[0] = False
     if fill.any():
         out[fill[labels]] = 1
-    balls, busy, joined = _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px)
+    contrast = min(max(SHADING_CONTRAST_SHARE * target.hsv_min[2], SHADING_CONTRAST_LEAST), SHADING_CONTRAST)
+    balls, busy, joined = _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px, contrast=contrast)
     # The gradient of the ball's rim spreads a pixel beyond it (the blur, Sobel's 3 x 3): a disc that much wider
     # would put the ball nearer than it is.
     balls, busy = cv2.erode(balls, _CROSS), cv2.erode(busy, _CROSS)
@@ -146,7 +154,9 @@ def shading(image: np.ndarray, target, near_px: float, far_px: float, crowded: b
     # A disc cut out of a joined patch is placed to a cell, its patch's whole outline is not: crowded, it is left out
     # (paired, its depth was a pixel of disparity off: white_ball tune seed 103, 0.18 m behind the ball).
     if joined is not None:
-        balls |= _ball_patches(joined, shaded, edges, grey, direction, straight, near_px, far_px, _inner_discs(joined, far_px, near_px))[0]
+        balls |= _ball_patches(
+            joined, shaded, edges, grey, direction, straight, near_px, far_px, _inner_discs(joined, far_px, near_px), contrast
+        )[0]
     return (balls, busy) if crowded else balls  # (apart: a patch is kept or crowded, a joined one neither)
 
 
@@ -206,7 +216,9 @@ def _per_label(reduce, values: np.ndarray, labels: np.ndarray, n: int, empty) ->
     return out
 
 
-def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px, discs=None) -> tuple[np.ndarray, np.ndarray | None]:
+def _ball_patches(
+    out, shaded, edges, grey, direction, straight, near_px, far_px, discs=None, contrast: float = SHADING_CONTRAST
+) -> tuple[np.ndarray, np.ndarray | None]:
     """The patches of a shading map (``out``, uint8 0/1, holes filled) that could be a ball (motion.shading's tests):
     round, as wide as a ball between ``far_px`` and ``near_px``, showing gradient themselves (``shaded``, before the
     holes were filled), alone on something flat (``edges`` around them), with a lit side and a limb (``grey``), a rim
@@ -244,7 +256,7 @@ def _ball_patches(out, shaded, edges, grey, direction, straight, near_px, far_px
         alone = _box_sums(cv2.integral(edges, sdepth=cv2.CV_32S), grown, box) <= (SHADING_BUSY_DRAWN if drawn else SHADING_BUSY) * ring
     if keep.any():  # a sphere's lit side and its limb differ: a flat decal (a switch, a socket) is one grey
         shades = grey[candidates]
-        keep &= _per_label(np.maximum, shades, mine, n, 0.0) - _per_label(np.minimum, shades, mine, n, 255.0) >= SHADING_CONTRAST
+        keep &= _per_label(np.maximum, shades, mine, n, 0.0) - _per_label(np.minimum, shades, mine, n, 255.0) >= contrast
     if keep.any():  # a ball's rim turns all the way round: its gradient points every way, a corner's or a line end's not
         way = (direction[candidates] * (SHADING_WAYS / (2 * np.pi))).astype(np.int32) % SHADING_WAYS
         rim = shaded[candidates] > 0

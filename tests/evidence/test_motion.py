@@ -171,13 +171,14 @@ def _white_room(cam, rng, balls=()):
     return img
 
 
-def _lit_spheres(img, balls, radius=14.0):
-    """Draws into ``img`` a sphere lit from above at each (x, y) of ``balls``: 150 on its dark side, 245 where it faces the light."""
+def _lit_spheres(img, balls, radius=14.0, dark=150, light=245):
+    """Draws into ``img`` a sphere lit from above at each (x, y) of ``balls``: ``dark`` on its dark side, ``light`` where it
+    faces the light."""
     yy, xx = np.mgrid[: img.shape[0], : img.shape[1]]
     for x, y in balls:
         nz2 = 1 - ((xx - x) ** 2 + (yy - y) ** 2) / radius**2
         lit = np.clip((np.sqrt(np.clip(nz2, 0, 1)) * 0.5 - (yy - y) / radius * 0.85), 0, 1)
-        img[nz2 >= 0] = (150 + 95 * lit[nz2 >= 0])[:, None].astype(np.uint8)
+        img[nz2 >= 0] = (dark + (light - dark) * lit[nz2 >= 0])[:, None].astype(np.uint8)
 
 
 def _shading_map(img, target, cam):
@@ -572,3 +573,37 @@ def test_a_tracked_things_foreground_that_stays_is_told_from_one_that_changes():
                 assert bg.changed(fg, *uv[0], r)  # it came this frame
         assert fg[v, u] and bg.changed(fg, *uv[0], r) is moves
         assert not bg.changed(fg, uv[0, 0] - 8 * r, uv[0, 1], r)  # nothing there
+
+
+def test_the_shading_contrast_asked_follows_the_targets_least_value():
+    """A grey ball's lit and shaded sides are both its albedo's share of the light: its shading spans less than a white
+    one's (white_ball tune seed 65: a grey ball before a grey box, 32-37 levels, never found with 40 asked). The
+    contrast asked is SHADING_CONTRAST_SHARE of the range's least value, within SHADING_CONTRAST_LEAST ..
+    SHADING_CONTRAST: a range that starts at value 100 asks 30 levels, and a sphere shaded over 34 shows; a white
+    target's range asks the full 40, and the same sphere (a door's knob of 34 levels, tune seed 47) stays out."""
+    from stereotrack.config import Target
+    from stereotrack.evidence.motion import SHADING_CONTRAST, SHADING_CONTRAST_LEAST, SHADING_CONTRAST_SHARE
+
+    cam = default_rig().cameras[0]
+    grey, white = Target("grey", (0, 0, 100), (179, 50, 255), RADIUS), Target("white", (0, 0, 170), (179, 50, 255), RADIUS)
+    assert (
+        SHADING_CONTRAST_SHARE * grey.hsv_min[2]
+        == SHADING_CONTRAST_LEAST
+        < 34
+        < SHADING_CONTRAST
+        <= SHADING_CONTRAST_SHARE * white.hsv_min[2]
+    )
+
+    def room(wall, dark, light):  # a flat wall (with sensor noise) and a sphere at (320, 240), lit from above
+        noise = np.random.default_rng(2).normal(0, 1, (cam.height, cam.width, 3))
+        img = np.clip(np.full((cam.height, cam.width, 3), float(wall)) + noise, 0, 255).astype(np.uint8)
+        _lit_spheres(img, [(320, 240)], dark=dark, light=light)
+        return img
+
+    def shows(img, target):
+        m, yy, xx = _shading_map(img, target, cam)
+        return m[(xx - 160) ** 2 + (yy - 120) ** 2 <= 5**2].mean() > 0.9
+
+    faint = room(215, 195, 229)  # 34 levels from its shaded side to its lit one, on a lighter wall
+    assert shows(faint, grey) and not shows(faint, white)
+    assert shows(room(150, 190, 245), white)  # a white ball's full shading
