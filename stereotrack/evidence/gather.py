@@ -440,6 +440,10 @@ DUPLICATE_PX = 2.0  # a moving blob whose centroid is this close to a colour blo
 # aspect 1.07-1.52, fill 0.65-0.98 (most over 0.8); the moving edges of hands of the ball's colour (hands tune seed 12)
 # are ragged, fill 0.5-0.65 mostly, and their crossings had made lasting false balls (0.822 -> 0.189).
 ALONE_ASPECT, ALONE_FILL = 1.6, 0.75
+# ... or, as round as a ball's disc (no longer than ROUND_ALONE_ASPECT times its width), fills ROUND_ALONE_FILL of it: a ball
+# whose middle matches the wall behind it moves at its rim and in specks (hue_wall tune seeds 95, 74: aspect 1.0-1.2, fill
+# 0.55-0.72, no crossing, found after 27 and 35 frames), where a hand's moving edge is a band along it, longer than wide.
+ROUND_ALONE_ASPECT, ROUND_ALONE_FILL = 1.25, 0.5
 # p(ball | colour) x 255 above which a pixel is surely the ball's colour: a ball has p near 1 where a wall, a prop
 # or an arm of its hue, which the mask's p > 0.5 merges with it into one blob that is no ball, has p near 0.5.
 SURE = 191
@@ -513,7 +517,9 @@ def _seeds(
             new &= ~same.any(axis=1)
         solid = None
         if mb.axes is not None:  # (the histogram finder measures no shape)
-            solid = (mb.axes[:, 0] <= ALONE_ASPECT * np.maximum(mb.axes[:, 1], 0.5)) & (mb.ellipse_fills() >= ALONE_FILL)
+            fills, minor = mb.ellipse_fills(), np.maximum(mb.axes[:, 1], 0.5)
+            solid = (mb.axes[:, 0] <= ALONE_ASPECT * minor) & (fills >= ALONE_FILL)
+            solid |= (mb.axes[:, 0] <= ROUND_ALONE_ASPECT * minor) & (fills >= ROUND_ALONE_FILL)
         take(mb, new, True, solid)
     if soft is not None and no_ball:
         sure = cv2.threshold(soft, SURE, 1, cv2.THRESH_BINARY)[1]  # made only here: most frames every colour blob is a ball

@@ -98,8 +98,10 @@ def ray_crossings(
     camera's axis and still); ``narrowed`` (likewise, at least 1): how much
     narrower than a ball a blob's width may read besides (None: 1; a fast
     ball's streak loses its faded sides from its mask). ``more`` (per camera,
-    or None): rays of blobs of another map, paired with the blobs' and with
-    each other, as (origins, directions, widths in pixels, log stretch, use flags).
+    or None): rays of blobs of another map, as (origins, directions, widths in
+    pixels, log stretch, use flags); given, only the pairs with one of them or
+    two are crossed (with the blobs' and with each other), the blobs' own pairs
+    not.
     """
     use = [np.ones(len(v.blobs), bool) if skip is None else ~np.asarray(skip[j], bool) for j, v in enumerate(views)]
     if any(len(u) != len(v.blobs) for u, v in zip(use, views)):  # the kernel reads one flag per blob, unchecked
@@ -110,13 +112,22 @@ def ray_crossings(
 
     ks, ns = logs(stretch), logs(narrowed)
     rays = [(*v.rays, v.blobs.ball_radii(), ks[j], ns[j], use[j]) for j, v in enumerate(views)]
-    for j, (o, d, widths, k, u) in enumerate(more or ()):  # after the blobs' rays (none narrowed)
-        o1, d1, w1, k1, n1, u1 = rays[j]
-        rays[j] = (np.vstack([o1, o]), np.vstack([d1, d]), np.r_[w1, widths], np.r_[k1, k], np.r_[n1, np.zeros(len(o))], np.r_[u1, u])
+    # each pair of cameras' rays is crossed with these flags: every blob's with every blob's, or with ``more`` those of the
+    # other map (all of camera j's with k's others, then j's others with k's blobs): no pair twice, none of two blobs
+    flags = [lambda j, k: (rays[j][5], rays[k][5])]
+    if more is not None:
+        for j, (o, d, widths, k, u) in enumerate(more):  # after the blobs' rays (none narrowed)
+            o1, d1, w1, k1, n1, u1 = rays[j]
+            rays[j] = (np.vstack([o1, o]), np.vstack([d1, d]), np.r_[w1, widths], np.r_[k1, k], np.r_[n1, np.zeros(len(o))], np.r_[u1, u])
+        others = [np.r_[np.zeros(len(v.blobs), bool), m[4]] for v, m in zip(views, more)]
+        blobs = [np.r_[u, np.zeros(len(m[0]), bool)] for u, m in zip(use, more)]
+        flags = [lambda j, k: (rays[j][5], rays[k][5] & others[k]), lambda j, k: (rays[j][5] & others[j], blobs[k])]
     out = [
         crossing_points(
-            *rays[j],
-            *rays[k],
+            *rays[j][:5],
+            use_j,
+            *rays[k][:5],
+            use_k,
             a.camera.R,
             a.camera.t,
             a.camera.focal_px,
@@ -131,22 +142,22 @@ def ray_crossings(
         for j, a in enumerate(views)
         for k, b in enumerate(views)
         if j < k and len(rays[j][0]) and len(rays[k][0])
+        for use_j, use_k in (f(j, k) for f in flags)
     ]
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
-def crossing_particles(n: int, share: float, mask_crossings: int, crossings: int) -> int:
-    """How many of ``n`` abductive particles go around the crossings (``crossings`` in all, ``mask_crossings`` of them
-    the colour mask's blobs' alone, the others with a moving blob of its own: Seeds.alone): ``share`` of them for the
-    mask's, and as many per crossing again for the others, from the rays' part (at most half of ``n``). Shared out of the
-    mask's part instead, the others took particles from a ball's own crossing, and found it later (hands tune seed 36:
-    frames not yet found 11 -> 29)."""
-    if not crossings:
+def alone_particles(n: int, share: float, mask_crossings: int, alone_crossings: int) -> int:
+    """How many of ``n`` abductive particles go around the crossings of moving blobs of their own (Seeds.alone), besides
+    the mask's crossings' ``share``: ALONE_EACH per crossing, at most a quarter of ``n``, from the rays' part; the share
+    when the mask has no crossings. Shared among the mask's crossings, they took particles from a ball's own crossing
+    (hands tune seed 36: frames not yet found 11 -> 29); a share spread over all, a wall of the ball's hue crossing 60-265
+    times left the ball's crossing under one (hue_wall tune seeds 95, 20)."""
+    if not alone_crossings:
         return 0
-    least = int(round(share * n))
-    if not mask_crossings or crossings == mask_crossings:
-        return least
-    return max(least, min(int(round(share * n * crossings / mask_crossings)), n // 2))
+    if not mask_crossings:
+        return int(round(share * n))
+    return min(ALONE_EACH * alone_crossings, n // 4, n - int(round(share * n)))  # (never more than the rays' part)
 
 
 def _holders(projected: tuple[np.ndarray, np.ndarray], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -212,6 +223,7 @@ MOVING_SHARE = 0.5  # at least this share of the particles along rays goes to th
 # A moving blob's size is a ball's only roughly: a slow ball's trail (the background half learnt where it just was) can
 # double it, a ball whose middle matches the wall behind it moves at its edges only. Its depth range allows that much.
 MOVING_SLACK = 2.5
+ALONE_EACH = 8  # particles around each crossing of a moving blob of its own (alone_particles)
 HELD_MIN_PX = 3.0  # a tracked ball holds a blob when it projects within the blob's radius, or this many pixels of its centre
 
 
@@ -266,8 +278,8 @@ class RayProposal:
             moved.append(b.moved if self.moving_first and b.moved is not None else np.zeros(len(b), bool))
         if not origins:  # nothing of this colour in any image: search blindly
             return frustum_particles(views[0].camera, n, s.d_min, s.d_max, rng)
-        crossings = np.zeros((0, 3))
-        n_cross = 0
+        crossings = alone = np.zeros((0, 3))
+        n_cross = n_alone = 0
         if s.crossing_share > 0:
             # Crossings are for balls no track holds yet: blobs a tracked ball of this colour projects
             # into are left out (their ball has its particles; a partly hidden one's shifted centroid
@@ -293,18 +305,25 @@ class RayProposal:
                 if self.moving_first:  # a white ball's crossings are its moving blobs': the colour's specks cross everywhere
                     held = still if held is None else [h | m for h, m in zip(held, still)]
             crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed)
-            alone = None if self.moving_first else _alone_rays(views, seeds, projected)
-            n_mask = len(crossings)
-            if alone is not None:
-                crossings = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed, more=alone)
-            n_cross = crossing_particles(n, s.crossing_share, n_mask, len(crossings))
+            alone_rays = None if self.moving_first else _alone_rays(views, seeds, projected)
+            if alone_rays is not None:
+                alone = ray_crossings(views, self.radius, s.d_min, s.d_max, held, stretch=stretch, narrowed=narrowed, more=alone_rays)
+            n_cross = int(round(s.crossing_share * n)) if len(crossings) else 0
+            n_alone = alone_particles(n, s.crossing_share, len(crossings), len(alone))
         pts = self._on_rays(
-            np.vstack(origins), np.vstack(dirs), np.concatenate(near), np.concatenate(far), np.concatenate(moved), n - n_cross, rng
+            np.vstack(origins),
+            np.vstack(dirs),
+            np.concatenate(near),
+            np.concatenate(far),
+            np.concatenate(moved),
+            n - n_cross - n_alone,
+            rng,
         )
-        if n_cross:
-            at = np.repeat(np.arange(len(crossings)), n_cross // len(crossings))
-            at = np.r_[at, rng.permutation(len(crossings))[: n_cross - len(at)]]
-            pts = np.vstack([pts, crossings[at] + rng.normal(0.0, 0.5 * self.radius, (n_cross, 3))])
+        for points, count in ((crossings, n_cross), (alone, n_alone)):  # each group's particles fairly among its crossings
+            if count:
+                at = np.repeat(np.arange(len(points)), count // len(points))
+                at = np.r_[at, rng.permutation(len(points))[: count - len(at)]]
+                pts = np.vstack([pts, points[at] + rng.normal(0.0, 0.5 * self.radius, (count, 3))])
         return pts
 
     @staticmethod

@@ -293,12 +293,14 @@ def test_a_fast_ball_whose_streak_reads_narrower_than_the_ball_keeps_its_crossin
     assert (np.linalg.norm(pts - ball, axis=1) < 2 * RADIUS).sum() >= 5
 
 
-def test_a_ball_moving_before_a_wall_of_its_colour_crosses_from_its_moving_blobs_a_ragged_moving_edge_does_not(monkeypatch):
+def test_a_ball_moving_before_a_wall_of_its_colour_crosses_from_its_moving_blobs_a_moving_band_does_not(monkeypatch):
     """A ball before a wall of its hue: in the colour mask its disc joins the wall's blob, far too large for a ball, which
-    crosses nothing; in the moving map it is a solid blob of its own, and its rays in the two views cross at the ball
-    (hue_wall tune seed 115: two balls moving before a curtain of their hue had no crossing, and were found after 13 and
-    29 frames). A ragged moving blob of a ball's size (a hand's moving fingers: here a thick ring, filling about half of its
-    disc) seeds particles along its rays but crosses nothing (gather.ALONE_FILL)."""
+    crosses nothing; in the moving map it is a blob of its own, and its rays in the two views cross at the ball (hue_wall
+    tune seed 115: two balls moving before a curtain of their hue had no crossing, and were found after 13 and 29
+    frames). So it does where only its rim moves, its middle matching the wall behind it: round, filling about half of
+    its disc (tune seeds 95, 74: found after 27 and 35 frames; gather.ROUND_ALONE_FILL). A band of a ball's size along a
+    moving edge (a hand's: a crescent, longer than wide and filling little of its ellipse) seeds particles along its rays
+    but crosses nothing (gather.ALONE_FILL)."""
     from stereotrack.config import TrackerSettings
     from stereotrack.evidence.gather import CameraEvidence
     from stereotrack.particles import proposal
@@ -313,32 +315,57 @@ def test_a_ball_moving_before_a_wall_of_its_colour_crosses_from_its_moving_blobs
         return made[-1]
 
     monkeypatch.setattr(proposal, "ray_crossings", spy)
-    for ragged in (False, True):
+    for moving_part, crosses in (("disc", True), ("rim", True), ("band", False)):
         views = []
         for cam, disc in zip(rig.cameras, discs):
             x, y = cam.project(ball)[0][0]
+            r = cam.apparent_radius(RADIUS, cam.depth(ball))[0]
             wall = np.zeros_like(disc)
             wall[:, int(x) + 2 :] = 1  # the wall of its colour, from inside the ball's disc to the image's right edge
             moving = disc.copy()
-            if ragged:
-                cv2.circle(moving, (round(x), round(y)), int(0.6 * cam.apparent_radius(RADIUS, cam.depth(ball))[0]), 0, -1)
+            if moving_part == "rim":
+                cv2.circle(moving, (round(x), round(y)), int(0.6 * r), 0, -1)
+            elif moving_part == "band":
+                cv2.circle(moving, (round(x + 0.5 * r), round(y)), round(r), 0, -1)
             views.append(CameraEvidence.from_mask(cam, disc | wall, foreground=moving, ball=(RADIUS, 0.2, 5.0)))
             assert len(views[-1].blobs) == 1  # the ball and the wall: one blob of the mask
         assert not len(ray_crossings(views, RADIUS, 0.2, 5.0))  # (which crosses nowhere)
-        assert all(v.seeds is not None and len(v.seeds) == 1 for v in views)  # the moving blob seeds, ragged or not
+        assert all(v.seeds is not None and len(v.seeds) == 1 for v in views)  # the moving blob seeds, whatever its shape
+        made.clear()
         proposal.RayProposal(TrackerSettings(), RADIUS)(views, 400, None, np.random.default_rng(0))
-        nearest = np.linalg.norm(made[-1] - ball, axis=1).min(initial=np.inf)
-        assert nearest > 0.05 if ragged else nearest < 0.01
+        nearest = min((np.linalg.norm(c - ball, axis=1).min(initial=np.inf) for c in made), default=np.inf)
+        assert nearest < 0.01 if crosses else nearest > 0.05, moving_part
 
 
-def test_crossings_of_moving_blobs_of_their_own_take_particles_from_the_rays_not_from_the_masks_crossings():
+def test_crossings_of_moving_blobs_of_their_own_get_particles_of_their_own():
     """The mask's crossings keep crossing_share of the abductive particles whatever else crosses: the moving blobs' own
-    crossings get as many each again, from the rays' part, at most half of them all."""
-    from stereotrack.particles.proposal import crossing_particles
+    crossings get ALONE_EACH each besides, from the rays' part, at most a quarter of them all (or the share, when the
+    mask crosses nowhere); and ray_crossings gives those alone, not the mask's pairs again."""
+    from stereotrack.evidence.gather import CameraEvidence
+    from stereotrack.particles.proposal import ALONE_EACH, alone_particles
 
-    assert crossing_particles(400, 0.25, 0, 0) == 0
-    assert crossing_particles(400, 0.25, 2, 2) == 100  # the mask's alone: as before
-    assert crossing_particles(400, 0.25, 0, 3) == 100  # moving blobs' alone: the share
-    assert crossing_particles(400, 0.25, 2, 3) == 150  # 50 each: the mask's two keep their 100
-    assert crossing_particles(400, 0.25, 1, 9) == 200  # at most half
-    assert crossing_particles(400, 0.75, 2, 3) == 300  # never less than the share
+    assert alone_particles(400, 0.25, 5, 0) == 0
+    assert alone_particles(400, 0.25, 0, 3) == 100  # moving blobs' alone: the share
+    assert alone_particles(400, 0.25, 60, 3) == 3 * ALONE_EACH  # a wall's many crossings do not thin them out
+    assert alone_particles(400, 0.25, 60, 40) == 100  # at most a quarter
+    assert alone_particles(400, 0.9, 60, 30) == 400 - 360  # nor more than the share leaves the rays
+    assert alone_particles(400, 1.0, 60, 3) == 0
+    rig = default_rig()
+    balls = np.array([[-0.2, 1.5, 0.0], [0.2, 1.8, 0.05]])
+    discs, _ = disc_masks(rig, balls)
+    views = [CameraEvidence.from_mask(cam, d) for cam, d in zip(rig.cameras, discs)]
+    mask_only = ray_crossings(views, RADIUS, 0.2, 5.0)
+    assert len(mask_only) >= 2  # the two balls (and their ghosts, if any)
+    # the second ball's disc again as another map's ray in camera 1: it crosses camera 0's blobs, not the mask's pairs
+    v = views[1]
+    k = int(np.argmin(np.linalg.norm(v.blobs.centres - rig.cameras[1].project(balls[1:])[0], axis=1)))
+    more = [
+        (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, bool)),
+        (v.rays[0][k : k + 1], v.rays[1][k : k + 1], v.blobs.ball_radii()[k : k + 1], np.zeros(1), np.ones(1, bool)),
+    ]
+    extra = ray_crossings(views, RADIUS, 0.2, 5.0, more=more)
+    assert np.linalg.norm(extra - balls[1], axis=1).min() < 0.01
+    origin, direction = more[1][0][0], more[1][1][0]
+    off_ray = np.linalg.norm(np.cross(extra - origin, direction), axis=1)
+    assert (off_ray < RADIUS).all()  # each on the other map's ray: none of the mask's own pairs (ball 0's crossing)
+    assert np.linalg.norm(mask_only - balls[0], axis=1).min() < 0.01
