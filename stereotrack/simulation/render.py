@@ -47,7 +47,7 @@ def disc_shares(cameras, centres: np.ndarray, radii: np.ndarray, shown_px) -> np
 
 
 def _whole_disc_pixels(centre: np.ndarray, radius: float) -> int:
-    """``disc_pixels`` of the disc on an image large enough to hold it all (its centre as far off a pixel's)."""
+    """``disc_pixels`` of the whole disc: on an image large enough to hold it, its centre as far from a pixel's."""
     reach = int(np.ceil(radius)) + 1
     shifted = np.asarray(centre, float) % 1.0 + reach
     return disc_pixels(shifted, radius, 2 * reach + 2, 2 * reach + 2)
@@ -120,10 +120,10 @@ class SceneRenderer:
 
     Truth rows are (object_id, x, y, z, visible, clear) for every ball present
     that some camera sees or whose centre is in front of and inside every
-    camera's image (hidden there, behind a prop); ``visible`` counts the cameras in which some of the
-    ball is not hidden, ``clear`` those that show CLEAR_SHARE of its disc or
-    more (a ball half out of an image shows half of it). Any frame can be rendered on its
-    own and always comes out the same.
+    camera's image (hidden there, behind a prop); ``visible`` counts the
+    cameras in which some of the ball is not hidden, ``clear`` those that show
+    CLEAR_SHARE of its disc or more (a ball half out of an image shows half of
+    it). Any frame can be rendered on its own and always comes out the same.
     """
 
     def __init__(self, spec: SceneSpec):
@@ -246,6 +246,7 @@ class SceneRenderer:
         return tuple(images), truth
 
     def _inside_every_image(self, centre: np.ndarray) -> bool:
+        """Is ``centre`` (3) in front of every camera and inside its image?"""
         for cam in self.rig.cameras:
             uv, front = cam.project(centre[None])
             if not (front[0] and 0 <= uv[0, 0] <= cam.width - 1 and 0 <= uv[0, 1] <= cam.height - 1):
