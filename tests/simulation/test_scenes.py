@@ -131,21 +131,20 @@ def test_occluder_hides_the_ball_in_one_view():
     assert cam0 == 0.0 and 0.95 < cam1 < 1.05  # hidden from cam0, all of it in cam1 (its disc's pixels, to its edge's)
 
 
-def _at_cam0_column(u: float, y: float = 1.5) -> np.ndarray:
-    """The point at depth ``y`` (z 0) that cam0 of one_ball_scene's rig shows at column ``u`` (off its image, too)."""
-    cam = RigSpec().build().cameras[0]
+def _at_column(cam, u: float, y: float = 1.5) -> np.ndarray:
+    """The point at depth ``y`` (z 0) that ``cam`` shows at column ``u`` of its middle row (off its image, too)."""
     o, d = (a[0] for a in cam.rays(np.array([[u, cam.height / 2]])))
     return o + (y - o[1]) / d[1] * d
 
 
-@pytest.mark.parametrize("off_px, clear", [(3.0, 2), (-0.8, 1)])
-def test_truth_holds_a_ball_whose_centre_is_out_of_an_image_that_shows_part_of_it(off_px, clear):
+@pytest.mark.parametrize("out_px, out_radii, clear", [(3.0, 0.0, 2), (0.0, 0.8, 1)])
+def test_truth_holds_a_ball_whose_centre_is_out_of_an_image_that_shows_part_of_it(out_px, out_radii, clear):
     """A ball whose centre lies 3 pixels left of cam0's image shows nearly half its disc there: it has a truth row, clear
     in both cameras (a tracker that follows it there is right, not false). One that shows cam0 a sliver (its centre 0.8
     radii out) has a row that leaves it optional (clear 1); one out of every image has none."""
-    cam = RigSpec().build().cameras[0]
+    cam = RigSpec().build().cameras[0]  # one_ball_scene's rig
     r = cam.apparent_radius(0.035, np.array([1.5]))[0]
-    point = _at_cam0_column(-(off_px if off_px > 0 else -off_px * r))
+    point = _at_column(cam, -(out_px + out_radii * r))
     renderer = SceneRenderer(one_ball_scene(tuple(point)))
     (row,) = renderer.render(0)[1]
     assert row[0] == 0 and np.allclose(row[1:4], point) and row[4] == 2 and row[5] == clear
